@@ -1,0 +1,42 @@
+#pragma once
+// Fixed-step integrators for x_dot = f(x). The inputs (rotor speeds, wind) are held constant
+// over the step by the caller's f (zero-order hold), as in thesis Alg. 1-2.
+//
+//   StateVector x1 = rk4_step(x0, dt, [&](const StateVector& x) { return f(x); });
+//
+// Neither integrator renormalises the quaternion; the simulator does after each step.
+
+#include <string_view>
+
+#include "dronetwin/core/types.hpp"
+
+namespace dronetwin {
+
+enum class Integrator { kRk4, kEuler };
+
+constexpr std::string_view integrator_name(Integrator i) {
+  return i == Integrator::kRk4 ? "rk4" : "euler";
+}
+
+/// Classical fourth-order Runge-Kutta: global error O(dt^4).
+template <class Vector, class F>
+Vector rk4_step(const Vector& x, double dt, F&& f) {
+  const Vector k1 = f(x);
+  const Vector k2 = f(Vector(x + (0.5 * dt) * k1));
+  const Vector k3 = f(Vector(x + (0.5 * dt) * k2));
+  const Vector k4 = f(Vector(x + dt * k3));
+  return x + (dt / 6.0) * (k1 + 2.0 * (k2 + k3) + k4);
+}
+
+/// Explicit (forward) Euler: global error O(dt).
+template <class Vector, class F>
+Vector euler_step(const Vector& x, double dt, F&& f) {
+  return x + dt * f(x);
+}
+
+template <class Vector, class F>
+Vector integrate_step(Integrator method, const Vector& x, double dt, F&& f) {
+  return method == Integrator::kRk4 ? rk4_step(x, dt, f) : euler_step(x, dt, f);
+}
+
+}  // namespace dronetwin

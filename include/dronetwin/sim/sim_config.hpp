@@ -1,0 +1,49 @@
+#pragma once
+// Run settings of a Simulator (everything that is not the airframe): step size, integrator,
+// which disturbance terms apply, environment, noise, ground and divergence limits, seed.
+
+#include <cstdint>
+
+#include "dronetwin/dynamics/environment.hpp"
+#include "dronetwin/dynamics/ground.hpp"
+#include "dronetwin/dynamics/wrench.hpp"
+#include "dronetwin/integrators/integrator.hpp"
+#include "dronetwin/model/allocation.hpp"
+#include "dronetwin/noise/ornstein_uhlenbeck.hpp"
+
+namespace dronetwin {
+
+struct NoiseConfig {
+  /// Adds OU noise to the measured state and state derivative (thesis Sec. 3.4).
+  bool enabled = false;
+  OuParameters parameters = OuParameters::thesis();
+};
+
+/// A state beyond these bounds is reported as diverged (the run stops) instead of integrated on.
+struct DivergenceLimits {
+  double max_position_m = 1.0e5;
+  double max_speed_m_s = 500.0;
+  double max_angular_speed_rad_s = 1.0e4;
+};
+
+struct SimConfig {
+  /// Physics step, s (thesis: 1 ms).
+  double dt_s = 1.0e-3;
+  Integrator integrator = Integrator::kRk4;
+  /// First-order motor lag (Eq. 2.43-2.45). Off: rotor speed = clamped reference at once.
+  bool motor_dynamics = true;
+  /// How set_generalized_force() turns [T, tau] into rotor speeds.
+  AllocationMethod allocation = AllocationMethod::kExact;
+  DisturbanceSwitches disturbances{};
+  Environment environment{};
+  NoiseConfig noise{};
+  GroundConfig ground{};
+  DivergenceLimits divergence{};
+  /// Seed of the simulator's own random stream (noise). Same seed + same config = same run.
+  std::uint64_t seed = 0;
+};
+
+/// Throws InvalidArgument naming the field when a setting is out of range or not finite.
+void validate(const SimConfig& config);
+
+}  // namespace dronetwin

@@ -1,0 +1,150 @@
+#pragma once
+// Simulator: one vehicle, steppable on demand, deterministic.
+//
+// It owns the run settings (SimConfig), the mutable data (SimData: rigid-body state, rotor speeds
+// and references, time, noise processes, random stream, contact) and shares the immutable
+// VehicleModel. Copying a Simulator copies the data and shares the model: cheap, and copies can
+// be stepped on different threads. Nothing in it is global.
+//
+//   auto model = std::make_shared<const VehicleModel>(load_vehicle_model("models/qdrone2.yaml"));
+//   Simulator sim(model, SimConfig{});
+//   sim.reset(Simulator::hover_state(Vec3(0, 0, 1)));
+//   sim.set_rotor_speed_reference(model->hover_speeds_rad_s());   // actuate
+//   for (int k = 0; k < 1000; ++k) sim.step();                    // 1 s at 1 kHz
+//   StateVector x = sim.measured_state();                         // sense
+//
+// One physics step (thesis Alg. 1-2, notes #25): forces from the current rotor speeds, rigid
+// body integrated over dt with the speeds held, quaternion renormalised, ground contact resolved,
+// motors advanced toward the reference, noise advanced, divergence checked. A new reference
+// therefore acts on the forces from the next step on.
+//
+// Trap: a step that produces a non-finite or out-of-bounds state is not committed; the simulator
+// enters the failed state (status() says why) and step() throws until reset().
+
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "dronetwin/core/types.hpp"
+#include "dronetwin/dynamics/held_rotor_wrench.hpp"
+#include "dronetwin/dynamics/motor.hpp"
+#include "dronetwin/dynamics/wrench.hpp"
+#include "dronetwin/model/vehicle_model.hpp"
+#include "dronetwin/noise/ornstein_uhlenbeck.hpp"
+#include "dronetwin/noise/random.hpp"
+#include "dronetwin/sim/sim_config.hpp"
+
+namespace dronetwin {
+
+enum class StepStatus {
+  kOk,
+  kNonFinite,  ///< the integrated state had NaN or inf
+  kDiverged,   ///< position, speed or angular speed beyond SimConfig::divergence
+};
+
+constexpr std::string_view status_name(StepStatus s) {
+  return s == StepStatus::kOk ? "ok" : (s == StepStatus::kNonFinite ? "non_finite" : "diverged");
+}
+
+/// Everything that changes while a simulator runs.
+struct SimData {
+  double time_s = 0.0;
+  std::int64_t step_count = 0;
+  StateVector state = StateVector::Zero();
+  RotorVector rotor_speed_rad_s;
+  RotorVector rotor_speed_reference_rad_s;
+  OrnsteinUhlenbeck state_noise;
+  OrnsteinUhlenbeck derivative_noise;
+  Random rng;
+  ContactState contact;
+  StepStatus status = StepStatus::kOk;
+  std::string failure_message;
+};
+
+struct StepResult {
+  StepStatus status = StepStatus::kOk;
+  /// Steps actually taken (fewer than asked when the run failed).
+  std::int64_t steps_taken = 0;
+  bool ok() const { return status == StepStatus::kOk; }
+};
+
+class Simulator {
+ public:
+  /// Validates `config` (InvalidArgument on bad settings); starts at rest at the origin with the
+  /// rotors stopped (z = 0: on the ground).
+  Simulator(std::shared_ptr<const VehicleModel> model, SimConfig config = {});
+
+  const VehicleModel& model() const { return *model_; }
+  const std::shared_ptr<const VehicleModel>& model_ptr() const { return model_; }
+  const SimConfig& config() const { return config_; }
+
+  /// A level state at rest at `position_W` (yaw `yaw_rad`).
+  static StateVector hover_state(const Vec3& position_W, double yaw_rad = 0.0);
+
+  /// Restarts the run: time 0, given state and rotor speeds (default: stopped), reference equal to
+  /// the speeds, noise processes zeroed, random stream reseeded with config().seed, contact and
+  /// failure cleared. The quaternion is normalised. Throws InvalidArgument for non-finite values,
+  /// a zero quaternion or a wrong rotor count.
+  void reset(const StateVector& state);
+  void reset(const StateVector& state, const RotorVector& rotor_speeds_rad_s);
+  /// reset() with a new seed (the config keeps it).
+  void reseed(std::uint64_t seed);
+
+  /// Overwrites the rigid-body state mid-run (time, noise and rotor speeds kept).
+  void set_state(const StateVector& state);
+  /// Overwrites the rotor speeds mid-run (clamped to the limits).
+  void set_rotor_speeds(const RotorVector& speeds_rad_s);
+
+  // ---- actuate ------------------------------------------------------------------------------
+  /// Rotor speed references, rad/s, one per rotor. Non-finite or wrong size: InvalidArgument.
+  void set_rotor_speed_reference(const RotorVector& reference_rad_s);
+  /// Generalized forces [T, tau_x, tau_y, tau_z], allocated to rotor speed references with
+  /// config().allocation.
+  void set_generalized_force(const GeneralizedForce& u);
+
+  // ---- step ---------------------------------------------------------------------------------
+  StepResult step();
+  /// Up to n steps; stops early at the first failure.
+  StepResult step(std::int64_t n);
+
+  // ---- sense --------------------------------------------------------------------------------
+  double time_s() const { return data_.time_s; }
+  std::int64_t step_count() const { return data_.step_count; }
+  const StateVector& state() const { return data_.state; }
+  /// state() + OU noise (equals state() when noise is off).
+  StateVector measured_state() const;
+  /// f(state, rotor speeds): [v_W, a_W, q_dot, w_dot_B] at the current instant.
+  StateVector state_derivative() const;
+  /// state_derivative() + an independent OU noise process.
+  StateVector measured_state_derivative() const;
+  const RotorVector& rotor_speeds_rad_s() const { return data_.rotor_speed_rad_s; }
+  const RotorVector& rotor_speed_reference_rad_s() const {
+    return data_.rotor_speed_reference_rad_s;
+  }
+  /// Force and moment of each term at the current state and rotor speeds.
+  WrenchBreakdown wrench_breakdown() const;
+  const ContactState& contact() const { return data_.contact; }
+  StepStatus status() const { return data_.status; }
+  const std::string& failure_message() const { return data_.failure_message; }
+  const SimData& data() const { return data_; }
+  /// Direct access for bindings that expose the state as a view; call set_state() semantics
+  /// yourself (finite values, unit quaternion).
+  SimData& mutable_data() { return data_; }
+
+  // ---- run settings that may change mid-run -------------------------------------------------
+  void set_wind(const Vec3& wind_W_m_s);
+  void set_disturbances(const DisturbanceSwitches& switches);
+  void set_noise_enabled(bool enabled) { config_.noise.enabled = enabled; }
+
+ private:
+  void check_rotor_vector(const RotorVector& v, const char* what) const;
+  StepStatus check_state(const StateVector& x, std::string& message) const;
+
+  std::shared_ptr<const VehicleModel> model_;
+  SimConfig config_;
+  MotorDiscretization motors_;
+  HeldRotorWrench held_;
+  SimData data_;
+};
+
+}  // namespace dronetwin

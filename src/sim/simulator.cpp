@@ -1,0 +1,239 @@
+#include "dronetwin/sim/simulator.hpp"
+
+#include <cmath>
+
+#include "dronetwin/core/error.hpp"
+#include "dronetwin/dynamics/ground.hpp"
+#include "dronetwin/dynamics/held_rotor_wrench.hpp"
+#include "dronetwin/dynamics/vehicle_dynamics.hpp"
+#include "dronetwin/integrators/integrator.hpp"
+#include "dronetwin/math/quaternion.hpp"
+#include "dronetwin/model/allocation.hpp"
+
+namespace dronetwin {
+
+namespace {
+constexpr const char* kBlockNames[4] = {"position", "velocity", "quaternion", "angular_velocity"};
+
+void require_finite_vec(const Vec3& v, const char* field) {
+  require(v.allFinite(), "simulation config: ", field, ": expected finite numbers, got [",
+          v.transpose(), "]");
+}
+}  // namespace
+
+void validate(const SimConfig& c) {
+  require(std::isfinite(c.dt_s) && c.dt_s > 0.0 && c.dt_s <= 0.1,
+          "simulation config: dt_s: expected a step in (0, 0.1] s, got ", c.dt_s);
+  require_finite_vec(c.environment.gravity_W_m_s2, "environment.gravity");
+  require_finite_vec(c.environment.wind_W_m_s, "environment.wind");
+  const OuParameters& p = c.noise.parameters;
+  const double drift_scale = p.drift == OuDrift::kPerSample ? 1.0 : c.dt_s;
+  for (int k = 0; k < 4; ++k) {
+    const auto& th = p.theta[static_cast<std::size_t>(k)];
+    const auto& sg = p.sigma[static_cast<std::size_t>(k)];
+    require(std::isfinite(th.a) && std::isfinite(th.b) && std::isfinite(sg.a) &&
+                std::isfinite(sg.b),
+            "simulation config: noise.", kBlockNames[k], ": expected finite theta and sigma");
+    // The per-step map is I - s Theta; its eigenvalues are 1 - s a and 1 - s (a + N b).
+    // The process is stable (has a stationary distribution) when both lie in (-1, 1).
+    const double e1 = 1.0 - drift_scale * th.a;
+    const double e2 = 1.0 - drift_scale * (th.a + kOuBlockSize[static_cast<std::size_t>(k)] * th.b);
+    require(std::abs(e1) < 1.0 && std::abs(e2) < 1.0, "simulation config: noise.theta.",
+            kBlockNames[k], ": the OU process is unstable (per-step decay factors ", e1, ", ", e2,
+            " must lie in (-1, 1))");
+  }
+  require(std::isfinite(c.ground.crash_speed_m_s) && c.ground.crash_speed_m_s > 0.0,
+          "simulation config: ground.crash_speed_m_s: expected > 0, got ", c.ground.crash_speed_m_s);
+  require(std::isfinite(c.ground.crash_tilt_rad) && c.ground.crash_tilt_rad > 0.0,
+          "simulation config: ground.crash_tilt_rad: expected > 0, got ", c.ground.crash_tilt_rad);
+  require(c.divergence.max_position_m > 0.0 && c.divergence.max_speed_m_s > 0.0 &&
+              c.divergence.max_angular_speed_rad_s > 0.0,
+          "simulation config: divergence: limits must be positive");
+}
+
+Simulator::Simulator(std::shared_ptr<const VehicleModel> model, SimConfig config)
+    : model_(std::move(model)), config_(std::move(config)) {
+  require(model_ != nullptr, "Simulator: model is null");
+  validate(config_);
+  motors_ = discretize_motors(*model_, config_.dt_s);
+  held_.configure(*model_, config_.disturbances);
+  data_.state_noise = OrnsteinUhlenbeck(config_.noise.parameters, config_.dt_s);
+  data_.derivative_noise = OrnsteinUhlenbeck(config_.noise.parameters, config_.dt_s);
+  reset(hover_state(Vec3::Zero()));
+}
+
+StateVector Simulator::hover_state(const Vec3& position_W, double yaw_rad) {
+  StateVector x = StateVector::Zero();
+  x.segment<3>(state_index::kPosition) = position_W;
+  x.segment<4>(state_index::kQuaternion) = math::from_euler(0.0, 0.0, yaw_rad);
+  return x;
+}
+
+void Simulator::check_rotor_vector(const RotorVector& v, const char* what) const {
+  require(v.size() == model_->num_rotors(), what, ": expected ", model_->num_rotors(),
+          " values (one per rotor of '", model_->name(), "'), got ", v.size());
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    require(std::isfinite(v[i]), what, "[", i, "]: expected a finite number, got ", v[i]);
+}
+
+void Simulator::reset(const StateVector& state) {
+  reset(state, RotorVector::Zero(model_->num_rotors()));
+}
+
+void Simulator::reset(const StateVector& state, const RotorVector& rotor_speeds_rad_s) {
+  check_rotor_vector(rotor_speeds_rad_s, "reset: rotor speeds");
+  set_state(state);
+  data_.time_s = 0.0;
+  data_.step_count = 0;
+  data_.rotor_speed_rad_s = rotor_speeds_rad_s;
+  for (int i = 0; i < model_->num_rotors(); ++i)
+    data_.rotor_speed_rad_s[i] = clamp_speed(model_->rotor(i), rotor_speeds_rad_s[i]);
+  data_.rotor_speed_reference_rad_s = data_.rotor_speed_rad_s;
+  data_.state_noise.reset();
+  data_.derivative_noise.reset();
+  data_.rng.reseed(config_.seed);
+  data_.contact = ContactState{};
+  if (config_.ground.enabled && data_.state[state_index::kPosition + 2] <= 0.0) {
+    data_.contact.in_contact = true;
+  }
+  data_.status = StepStatus::kOk;
+  data_.failure_message.clear();
+}
+
+void Simulator::reseed(std::uint64_t seed) {
+  config_.seed = seed;
+  reset(data_.state, data_.rotor_speed_rad_s);
+}
+
+void Simulator::set_state(const StateVector& state) {
+  for (int i = 0; i < kStateSize; ++i)
+    require(std::isfinite(state[i]), "state[", i, "]: expected a finite number, got ", state[i]);
+  const double qn = state.segment<4>(state_index::kQuaternion).norm();
+  require(qn > 1e-9, "state[6:10]: the quaternion must be non-zero (it is normalised), got norm ",
+          qn);
+  data_.state = state;
+  normalize_quaternion(data_.state);
+  if (config_.ground.enabled && data_.state[state_index::kPosition + 2] < 0.0) {
+    require(false, "state[2]: z = ", state[2],
+            " m is below the ground (z = 0); disable ground contact to start below it");
+  }
+}
+
+void Simulator::set_rotor_speeds(const RotorVector& speeds_rad_s) {
+  check_rotor_vector(speeds_rad_s, "rotor speeds");
+  for (int i = 0; i < model_->num_rotors(); ++i)
+    data_.rotor_speed_rad_s[i] = clamp_speed(model_->rotor(i), speeds_rad_s[i]);
+}
+
+void Simulator::set_rotor_speed_reference(const RotorVector& reference_rad_s) {
+  check_rotor_vector(reference_rad_s, "rotor speed reference");
+  data_.rotor_speed_reference_rad_s = reference_rad_s;
+}
+
+void Simulator::set_generalized_force(const GeneralizedForce& u) {
+  for (int i = 0; i < 4; ++i)
+    require(std::isfinite(u[i]), "generalized force [T, tau_x, tau_y, tau_z][", i,
+            "]: expected a finite number, got ", u[i]);
+  data_.rotor_speed_reference_rad_s = allocate_speeds(*model_, u, config_.allocation);
+}
+
+void Simulator::set_disturbances(const DisturbanceSwitches& switches) {
+  config_.disturbances = switches;
+  held_.configure(*model_, switches);
+}
+
+void Simulator::set_wind(const Vec3& wind_W_m_s) {
+  require(wind_W_m_s.allFinite(), "wind: expected finite numbers, got [", wind_W_m_s.transpose(),
+          "]");
+  config_.environment.wind_W_m_s = wind_W_m_s;
+}
+
+StepStatus Simulator::check_state(const StateVector& x, std::string& message) const {
+  using namespace state_index;
+  if (!x.allFinite()) {
+    message = detail::concat("state became non-finite at t = ", data_.time_s + config_.dt_s,
+                             " s (step ", data_.step_count + 1, ")");
+    return StepStatus::kNonFinite;
+  }
+  const DivergenceLimits& lim = config_.divergence;
+  const double p = x.segment<3>(kPosition).norm(), v = x.segment<3>(kVelocity).norm(),
+               w = x.segment<3>(kAngularVelocity).norm();
+  if (p > lim.max_position_m || v > lim.max_speed_m_s || w > lim.max_angular_speed_rad_s) {
+    message = detail::concat("state diverged at t = ", data_.time_s + config_.dt_s,
+                             " s: |p| = ", p, " m (limit ", lim.max_position_m, "), |v| = ", v,
+                             " m/s (limit ", lim.max_speed_m_s, "), |w| = ", w, " rad/s (limit ",
+                             lim.max_angular_speed_rad_s, ")");
+    return StepStatus::kDiverged;
+  }
+  return StepStatus::kOk;
+}
+
+StepResult Simulator::step() {
+  if (data_.status != StepStatus::kOk) {
+    throw SimulationError("Simulator::step: the run failed earlier (" + data_.failure_message +
+                          "); call reset() first");
+  }
+  const VehicleModel& m = *model_;
+  // Rotor speeds are held over the step: do their part of the force model once.
+  held_.prepare(m, data_.rotor_speed_rad_s);
+  const auto f = [&](const StateVector& x) { return held_.derivative(m, config_.environment, x); };
+  StateVector next = integrate_step(config_.integrator, data_.state, config_.dt_s, f);
+  normalize_quaternion(next);
+  resolve_ground_contact(config_.ground, next, data_.contact);
+
+  const StepStatus status = check_state(next, data_.failure_message);
+  if (status != StepStatus::kOk) {
+    data_.status = status;
+    return {status, 0};
+  }
+  data_.state = next;
+  if (config_.motor_dynamics) {
+    advance_motors(m, motors_, data_.rotor_speed_reference_rad_s, data_.rotor_speed_rad_s);
+  } else {
+    for (int i = 0; i < m.num_rotors(); ++i)
+      data_.rotor_speed_rad_s[i] = clamp_speed(m.rotor(i), data_.rotor_speed_reference_rad_s[i]);
+  }
+  if (config_.noise.enabled) {
+    data_.state_noise.step(data_.rng);
+    data_.derivative_noise.step(data_.rng);
+  }
+  ++data_.step_count;
+  data_.time_s = static_cast<double>(data_.step_count) * config_.dt_s;
+  return {StepStatus::kOk, 1};
+}
+
+StepResult Simulator::step(std::int64_t n) {
+  require(n >= 0, "Simulator::step(n): expected n >= 0, got ", n);
+  StepResult total;
+  for (std::int64_t k = 0; k < n; ++k) {
+    const StepResult r = step();
+    if (!r.ok()) {
+      total.status = r.status;
+      return total;
+    }
+    ++total.steps_taken;
+  }
+  return total;
+}
+
+StateVector Simulator::measured_state() const {
+  if (!config_.noise.enabled) return data_.state;
+  return data_.state + data_.state_noise.value();
+}
+
+StateVector Simulator::state_derivative() const {
+  return dronetwin::state_derivative<double>(*model_, config_.disturbances, config_.environment,
+                                             data_.state, data_.rotor_speed_rad_s);
+}
+
+StateVector Simulator::measured_state_derivative() const {
+  if (!config_.noise.enabled) return state_derivative();
+  return state_derivative() + data_.derivative_noise.value();
+}
+
+WrenchBreakdown Simulator::wrench_breakdown() const {
+  return dronetwin::wrench_breakdown(*model_, config_.disturbances, config_.environment,
+                                     data_.state, data_.rotor_speed_rad_s);
+}
+
+}  // namespace dronetwin

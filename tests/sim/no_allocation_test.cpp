@@ -1,0 +1,50 @@
+// "No heap allocation inside a step": this test binary replaces the global operator new with a
+// counting one, and a stepping loop (noise on, every term, motor lag) must not move the counter.
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include "dronetwin/sim/simulator.hpp"
+#include "test_support.hpp"
+
+namespace {
+std::atomic<long> g_allocations{0};
+}
+
+void* operator new(std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace dronetwin {
+namespace {
+
+TEST(NoAllocation, SteppingDoesNotAllocate) {
+  SimConfig cfg;
+  cfg.noise.enabled = true;
+  cfg.environment.wind_W_m_s << 1.0, 0.0, 0.0;
+  const auto model = test::load_model("qdrone2");
+  Simulator sim(model, cfg);
+  sim.reset(Simulator::hover_state(Vec3(0, 0, 0.2)), model->hover_speeds_rad_s());
+  RotorVector ref = model->hover_speeds_rad_s();
+  const long before = g_allocations.load();
+  for (int k = 0; k < 2000; ++k) {
+    ref[k % 4] += (k % 2 ? 1.0 : -1.0);
+    sim.set_rotor_speed_reference(ref);
+    sim.set_generalized_force(Vec4(15.0, 0.0, 0.0, 0.001));
+    ASSERT_TRUE(sim.step().ok());
+    volatile double sink = sim.measured_state()[2] + sim.measured_state_derivative()[5] +
+                           sim.wrench_breakdown()[Term::kThrust].force_B.z();
+    (void)sink;
+  }
+  EXPECT_EQ(g_allocations.load() - before, 0);
+}
+
+}  // namespace
+}  // namespace dronetwin
