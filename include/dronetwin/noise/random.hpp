@@ -1,6 +1,8 @@
 #pragma once
-// Seeded random numbers with results that are identical on every platform and compiler (the
-// standard library's distributions are not specified bit-for-bit, so we implement our own).
+// Seeded random numbers whose streams do not depend on the standard library (its distributions
+// are not specified bit-for-bit, so we implement our own). next_u64() and uniform() are identical
+// on every platform; normal() is too wherever std::exp/log/sqrt round alike (glibc on x86-64 and
+// aarch64 do), since the ziggurat tables and its rare wedge/tail branches use them.
 //
 //   Random rng(42);
 //   double n = rng.normal();     // N(0, 1)
