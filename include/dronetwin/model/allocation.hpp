@@ -2,7 +2,8 @@
 // Control allocation: generalized forces u = [T, tau_x, tau_y, tau_z] -> rotor speed references.
 //
 // kExact (default): rotor thrusts from the pseudo-inverse of the allocation matrix (thesis
-//   Eq. 2.30 generalised), then each rotor's full thrust polynomial inverted in closed form.
+//   Eq. 2.30 generalised) with thrust-first saturation handling (allocate_with_saturation), then
+//   each rotor's full thrust polynomial inverted in closed form.
 // kThesis: thesis Eq. 2.31, w_i^2 = (A^+ u)_i / 'K1 (drops 'K2 w + 'K3; at hover this commands
 //   about 32 % more thrust than asked, notes #38). Negative w^2 gives w = 0.
 // Both clamp to the rotor speed limits.
@@ -21,18 +22,67 @@ constexpr std::string_view allocation_name(AllocationMethod m) {
   return m == AllocationMethod::kExact ? "exact" : "thesis";
 }
 
+/// Result of an allocation with saturation handling.
+struct AllocationResult {
+  RotorVector speeds_rad_s;
+  /// Rotor thrusts the speeds produce (N), i.e. what the allocation actually asks for.
+  RotorVector thrusts_N;
+  /// Generalized forces those thrusts give (A * thrusts): equals the request when unsaturated.
+  GeneralizedForce achieved = GeneralizedForce::Zero();
+  /// Factor (0..1) applied to the requested moments to stay within the rotor limits.
+  double moment_scale = 1.0;
+  /// True when the request could not be met exactly (moments scaled or thrust clipped).
+  bool saturated = false;
+};
+
+/// Thrust-first allocation (exact method): rotor thrusts t = A^+ [T, 0] + s A^+ [0, tau] with the
+/// largest s in [0, 1] that keeps every rotor within its thrust range [T(w_min), T(w_max)]; if the
+/// collective thrust alone is out of range it is clipped per rotor. Thrust is kept first because
+/// losing altitude control is worse than a slower attitude response.
+inline AllocationResult allocate_with_saturation(const VehicleModel& model,
+                                                 const GeneralizedForce& u) {
+  const int n = model.num_rotors();
+  GeneralizedForce thrust_only = GeneralizedForce::Zero();
+  thrust_only[0] = u[0];
+  const RotorVector t_thrust = model.thrusts_for(thrust_only);
+  const RotorVector t_moment = model.thrusts_for(u - thrust_only);
+  AllocationResult r;
+  r.thrusts_N.resize(n);
+  r.speeds_rad_s.resize(n);
+  double s = 1.0;
+  for (int i = 0; i < n; ++i) {
+    const RotorParams& rp = model.rotor(i);
+    const double lo = rp.thrust(rp.min_speed_rad_s), hi = rp.thrust(rp.max_speed_rad_s);
+    const double base = std::clamp(t_thrust[i], lo, hi);
+    if (base != t_thrust[i]) r.saturated = true;
+    // Largest s with lo <= base + s m <= hi for this rotor.
+    const double m = t_moment[i];
+    if (m > 0.0 && base + s * m > hi) s = std::max(0.0, (hi - base) / m);
+    if (m < 0.0 && base + s * m < lo) s = std::max(0.0, (lo - base) / m);
+  }
+  if (s < 1.0) r.saturated = true;
+  r.moment_scale = s;
+  for (int i = 0; i < n; ++i) {
+    const RotorParams& rp = model.rotor(i);
+    const double lo = rp.thrust(rp.min_speed_rad_s), hi = rp.thrust(rp.max_speed_rad_s);
+    const double t = std::clamp(std::clamp(t_thrust[i], lo, hi) + s * t_moment[i], lo, hi);
+    r.speeds_rad_s[i] = rp.speed_for_thrust(t);
+    r.thrusts_N[i] = rp.thrust(r.speeds_rad_s[i]);
+  }
+  r.achieved = model.allocation_matrix() * r.thrusts_N;
+  return r;
+}
+
 inline RotorVector allocate_speeds(const VehicleModel& model, const GeneralizedForce& u,
                                    AllocationMethod method = AllocationMethod::kExact) {
+  if (method == AllocationMethod::kExact) return allocate_with_saturation(model, u).speeds_rad_s;
+  // Thesis Eq. 2.31 as printed: clip per rotor.
   const RotorVector thrusts = model.thrusts_for(u);
   RotorVector w(model.num_rotors());
   for (int i = 0; i < model.num_rotors(); ++i) {
     const RotorParams& r = model.rotor(i);
-    if (method == AllocationMethod::kExact) {
-      w[i] = r.speed_for_thrust(thrusts[i]);
-    } else {
-      const double w2 = thrusts[i] / r.thrust_coefficients[0];
-      w[i] = std::clamp(w2 > 0.0 ? std::sqrt(w2) : 0.0, r.min_speed_rad_s, r.max_speed_rad_s);
-    }
+    const double w2 = thrusts[i] / r.thrust_coefficients[0];
+    w[i] = std::clamp(w2 > 0.0 ? std::sqrt(w2) : 0.0, r.min_speed_rad_s, r.max_speed_rad_s);
   }
   return w;
 }

@@ -1,0 +1,95 @@
+#pragma once
+// Run logs as CSV: one header row of column names, then one row of numbers per logged instant.
+// Numbers are written with printf's "%.17g", which reads back to the identical double, so a log
+// is bitwise reproducible and round-trips exactly. Booleans are 0/1.
+//
+//   CsvLogWriter log("out/log.csv", log_column_names({4, true, false}));
+//   std::vector<double> row(log.num_columns());
+//   ... fill row ...; log.write_row(row);          // no allocation per row
+//   log.close();
+//   LogTable t = read_csv_log("out/log.csv");
+//   double z = t.at(10, t.column("z"));
+//
+// Column order (log_column_names): t, x, y, z, vx, vy, vz, qw, qx, qy, qz, wx, wy, wz (true state,
+// world position/velocity, q_WB, body rates), omega_0..omega_{N-1} (achieved rotor speeds, rad/s),
+// omega_ref_0..omega_ref_{N-1} (references), [meas_x .. meas_wz (measured state)], in_contact,
+// crashed, [F_<term>_x, F_<term>_y, F_<term>_z, M_<term>_x, M_<term>_y, M_<term>_z for each term,
+// body frame]. Bracketed groups are optional.
+//
+// Trap: the writer buffers; rows reach the file on flush(), close() or destruction. Errors on
+// close() throw; the destructor cannot, so close() explicitly when the file matters.
+
+#include <cstddef>
+#include <cstdio>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace dronetwin {
+
+/// Which optional column groups a run log has.
+struct LogLayout {
+  int num_rotors = 4;
+  bool measured = true;
+  bool wrench_breakdown = false;
+};
+
+/// The column names of a run log, in order (see the file comment).
+std::vector<std::string> log_column_names(const LogLayout& layout);
+
+class CsvLogWriter {
+ public:
+  /// Creates (truncates) `path` and writes the header. InvalidArgument if it cannot be opened or a
+  /// name is empty or holds a comma, quote or line break.
+  CsvLogWriter(const std::string& path, std::vector<std::string> columns);
+  ~CsvLogWriter();
+  CsvLogWriter(const CsvLogWriter&) = delete;
+  CsvLogWriter& operator=(const CsvLogWriter&) = delete;
+
+  std::size_t num_columns() const { return columns_.size(); }
+  const std::vector<std::string>& columns() const { return columns_; }
+  const std::string& path() const { return path_; }
+  std::size_t rows_written() const { return rows_; }
+
+  /// Appends one row; `n` must equal num_columns() (InvalidArgument otherwise).
+  void write_row(const double* values, std::size_t n);
+  void write_row(const std::vector<double>& values) { write_row(values.data(), values.size()); }
+
+  /// Pushes buffered rows to the file.
+  void flush();
+  /// Flushes and closes; throws InvalidArgument if the data could not be written.
+  void close();
+
+ private:
+  void write_buffer();
+
+  std::string path_;
+  std::vector<std::string> columns_;
+  std::FILE* file_ = nullptr;
+  std::vector<char> buffer_;
+  std::size_t used_ = 0;
+  std::size_t rows_ = 0;
+  bool write_error_ = false;
+};
+
+/// A log read back: column names and row-major values.
+struct LogTable {
+  /// The file it was read from (for messages).
+  std::string source;
+  std::vector<std::string> columns;
+  /// rows() * columns.size() numbers, row-major.
+  std::vector<double> values;
+
+  std::size_t rows() const { return columns.empty() ? 0 : values.size() / columns.size(); }
+  /// Index of a column; InvalidArgument naming the missing column otherwise.
+  std::size_t column(std::string_view name) const;
+  double at(std::size_t row, std::size_t col) const { return values[row * columns.size() + col]; }
+  /// One column as a vector.
+  std::vector<double> column_values(std::string_view name) const;
+};
+
+/// Reads a CSV log. InvalidArgument naming the file, line and column (number and name) for a
+/// malformed field or a row with the wrong number of fields.
+LogTable read_csv_log(const std::string& path);
+
+}  // namespace dronetwin

@@ -1,0 +1,166 @@
+#pragma once
+// Experiment files: one YAML document that says which model to fly, how (step, integrator,
+// disturbances, noise, wind, ground), from where (initial state), with which input, for how long
+// and what to log. Format: docs/experiment-format.md. Parsing is strict, like the model loader:
+// an unknown key (with a closest-key suggestion), a missing required key, a wrong type or length
+// or a non-finite number is an InvalidArgument whose message starts with the file and names the
+// field path ("x.yaml: input.segments[1].start_s: expected a number, got 'a'").
+//
+//   Experiment e = load_experiment("config/experiments/hover_open_loop.yaml");
+//   auto model = std::make_shared<const VehicleModel>(load_vehicle_model(e.model_path));
+//   check_against_model(e, *model);          // rotor counts, named by field
+//   Simulator sim(model, e.sim_config());
+//
+// Trap: checks that need the model (a rotor-speed vector must have one entry per rotor) cannot
+// run while parsing; call check_against_model() (run_experiment() does) before using the inputs.
+//
+// Adding an input kind (a controller, issue 3) means adding one struct to ExperimentInput and one
+// branch to the parser, the model check and the runner; nothing else changes shape.
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include "dronetwin/core/types.hpp"
+#include "dronetwin/dynamics/ground.hpp"
+#include "dronetwin/dynamics/wrench.hpp"
+#include "dronetwin/integrators/integrator.hpp"
+#include "dronetwin/model/allocation.hpp"
+#include "dronetwin/model/vehicle_model.hpp"
+#include "dronetwin/sim/sim_config.hpp"
+
+namespace dronetwin {
+
+/// Rotor speeds as an experiment states them: stopped, the model's hover speeds, or explicit
+/// numbers (rad/s, one per rotor; the count is checked against the model later).
+struct RotorSpeedSetting {
+  enum class Kind { kStopped, kHover, kValues };
+  Kind kind = Kind::kStopped;
+  std::vector<double> values_rad_s;
+
+  static RotorSpeedSetting stopped() { return {}; }
+  static RotorSpeedSetting hover() { return {Kind::kHover, {}}; }
+  static RotorSpeedSetting values(std::vector<double> v) { return {Kind::kValues, std::move(v)}; }
+
+  /// The speeds for `model`: zeros, model.hover_speeds_rad_s(gravity_m_s2) or the values. The
+  /// value count must match the rotor count (check_against_model() reports it by field).
+  RotorVector resolve(const VehicleModel& model, double gravity_m_s2) const;
+};
+
+// ---- inputs -----------------------------------------------------------------------------------
+
+/// `type: constant_rotor_speeds`: one rotor speed reference for the whole run.
+struct ConstantRotorSpeedsInput {
+  RotorSpeedSetting rotor_speeds;
+};
+
+/// One piece of `type: piecewise_rotor_speeds`: from start_s on, until the next segment starts.
+struct RotorSpeedSegment {
+  double start_s = 0.0;
+  RotorSpeedSetting rotor_speeds;
+};
+
+/// `type: piecewise_rotor_speeds`: a zero-order-hold schedule of rotor speed references. The first
+/// segment starts at 0; starts strictly increase. A segment takes effect at the first physics step
+/// whose start time k dt reaches start_s (see segment_start_step()).
+struct PiecewiseRotorSpeedsInput {
+  std::vector<RotorSpeedSegment> segments;
+};
+
+/// `type: constant_generalized_force`: u = [T, tau_x, tau_y, tau_z] (N, N m) for the whole run,
+/// allocated to rotor speed references with `allocation` (model/allocation.hpp).
+struct ConstantGeneralizedForceInput {
+  GeneralizedForce u = GeneralizedForce::Zero();
+  AllocationMethod allocation = AllocationMethod::kExact;
+};
+
+/// `type: hover`: rotor speed references = the model's hover speeds (for |gravity_m_s2|).
+struct HoverInput {};
+
+/// What drives the rotors. New kinds (a closed-loop controller) are added as alternatives.
+using ExperimentInput = std::variant<ConstantRotorSpeedsInput, PiecewiseRotorSpeedsInput,
+                                     ConstantGeneralizedForceInput, HoverInput>;
+
+/// The `type:` name of an input ("constant_rotor_speeds", ...).
+std::string_view input_type_name(const ExperimentInput& input);
+
+// ---- the experiment ---------------------------------------------------------------------------
+
+/// Initial condition; default: at rest, level, at the origin (on the ground), rotors stopped.
+struct InitialStateSpec {
+  Vec3 position_m = Vec3::Zero();
+  Vec3 velocity_m_s = Vec3::Zero();
+  /// Unit quaternion q_WB (w, x, y, z); `euler_rad` in the file is converted to it.
+  Vec4 quaternion_wxyz = Vec4(1.0, 0.0, 0.0, 0.0);
+  Vec3 angular_velocity_rad_s = Vec3::Zero();
+  RotorSpeedSetting rotor_speeds;
+
+  /// The 13-element state [p, v, q, w].
+  StateVector state() const;
+};
+
+struct LogSettings {
+  /// A row at t = 0 and then after every n-th physics step.
+  int every_n_steps = 1;
+  /// Adds F_<term>_{x,y,z}, M_<term>_{x,y,z} (body frame) for every force term.
+  bool wrench_breakdown = false;
+  /// Adds the measured (noisy) state, meas_x .. meas_wz.
+  bool measured = true;
+};
+
+struct Experiment {
+  std::string name;
+  /// Free text, optional.
+  std::string description;
+  /// The experiment file (or the source name given to parse_experiment), for messages.
+  std::string source;
+  /// Model file, resolved: relative to the experiment file's directory if it exists there,
+  /// otherwise relative to the current directory.
+  std::string model_path;
+  std::uint64_t seed = 0;
+  double duration_s = 0.0;
+  double physics_dt_s = 1.0e-3;
+  Integrator integrator = Integrator::kRk4;
+  bool motor_dynamics = true;
+  NoiseConfig noise{};
+  Vec3 wind_m_s = Vec3::Zero();
+  Vec3 gravity_m_s2 = Vec3(0.0, 0.0, -9.81);
+  DisturbanceSwitches disturbances{};
+  GroundConfig ground{};
+  InitialStateSpec initial_state{};
+  LogSettings log{};
+  ExperimentInput input = HoverInput{};
+
+  /// Run settings for the Simulator, validated (InvalidArgument naming the field otherwise).
+  SimConfig sim_config() const;
+  /// Physics steps of the run: duration_s / physics_dt_s rounded up (a duration within 1e-9 steps
+  /// of a whole multiple gives exactly that multiple).
+  std::int64_t num_steps() const;
+  /// |gravity_m_s2|, the g used for hover speeds.
+  double gravity_magnitude() const { return gravity_m_s2.norm(); }
+};
+
+/// Reads and checks an experiment file (everything that does not need the model; the model file
+/// must exist). Throws InvalidArgument "<path>: <field>: <what>".
+Experiment load_experiment(const std::string& path);
+
+/// Same, from YAML text; `source_name` stands for the file in messages, and its directory is
+/// where a relative model path is looked up first.
+Experiment parse_experiment(const std::string& yaml_text, const std::string& source_name);
+
+/// Checks the parts that depend on the model: every rotor-speed vector (initial state and input)
+/// has one number per rotor of `model`. Throws InvalidArgument naming the field, e.g.
+/// "x.yaml: input.segments[1].rotor_speeds_rad_s: expected 4 numbers (rotors of qdrone2), got 3".
+void check_against_model(const Experiment& experiment, const VehicleModel& model);
+
+/// Re-checks the fields a caller may override after loading (seed is free; duration_s > 0 and
+/// finite, and the run settings); used by the CLI after --duration.
+void validate(const Experiment& experiment);
+
+/// First physics step k (time k dt) at which a segment starting at `start_s` is in effect.
+std::int64_t segment_start_step(double start_s, double dt_s);
+
+}  // namespace dronetwin

@@ -1,0 +1,204 @@
+// The `dronetwin` command-line tool.
+//
+//   dronetwin run EXPERIMENT.yaml --out DIR [--seed N] [--duration S] [--quiet]
+//   dronetwin info MODEL.yaml
+//   dronetwin --version
+//
+// Exit codes: 0 success, 1 internal error, 2 bad input (malformed file, bad option; the message
+// goes to stderr as "error: ..."), 3 the run failed (diverged or non-finite state; log and
+// summary are still written).
+#include <CLI/CLI.hpp>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <exception>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <system_error>
+
+#include "dronetwin/core/error.hpp"
+#include "dronetwin/io/experiment.hpp"
+#include "dronetwin/io/model_loader.hpp"
+#include "dronetwin/io/run_experiment.hpp"
+
+namespace {
+
+using namespace dronetwin;
+
+constexpr int kExitOk = 0;
+constexpr int kExitInternal = 1;
+constexpr int kExitBadInput = 2;
+constexpr int kExitRunFailed = 3;
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::string fixed(double v, int digits) {
+  // Values that round to zero print as 0, not -0.000 (e.g. a drift of -7e-32 m).
+  if (std::abs(v) < 0.5 * std::pow(10.0, -digits)) v = 0.0;
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(digits) << v;
+  return out.str();
+}
+
+std::string vec(const Vec3& v, int digits) {
+  return "[" + fixed(v[0], digits) + ", " + fixed(v[1], digits) + ", " + fixed(v[2], digits) + "]";
+}
+
+/// "+ 0.5" / "- 0.5" for a polynomial term.
+std::string signed_term(double v) {
+  std::ostringstream out;
+  out << (v < 0.0 ? "- " : "+ ") << std::abs(v);
+  return out.str();
+}
+
+struct RunOptions {
+  std::string experiment;
+  std::string out_dir;
+  std::string seed;
+  double duration_s = 0.0;
+  bool quiet = false;
+  bool seed_given = false;
+  bool duration_given = false;
+};
+
+void print_summary(const RunSummary& s) {
+  using namespace state_index;
+  const double steps_per_s =
+      s.wall_clock_s > 0.0 ? static_cast<double>(s.steps) / s.wall_clock_s : 0.0;
+  std::cout << s.experiment_name << ": " << status_name(s.status) << ", " << s.steps << " of "
+            << s.steps_requested << " steps (" << s.duration_s << " s simulated) in "
+            << fixed(s.wall_clock_s, 3) << " s wall clock: " << fixed(steps_per_s, 0)
+            << " steps/s, " << fixed(s.real_time_factor, 1) << "x real time\n";
+  std::cout << "  model           " << s.model_name << " (" << s.model_path << "), seed " << s.seed
+            << ", " << integrator_name(s.integrator) << ", dt " << s.dt_s << " s, input "
+            << s.input_type << "\n";
+  std::cout << "  final position  " << vec(s.final_state.segment<3>(kPosition), 4) << " m, speed "
+            << fixed(s.final_state.segment<3>(kVelocity).norm(), 4) << " m/s\n";
+  std::cout << "  z range         [" << fixed(s.min_z_m, 4) << ", " << fixed(s.max_z_m, 4)
+            << "] m, max speed " << fixed(s.max_speed_m_s, 4) << " m/s\n";
+  std::cout << "  max tilt        " << std::setprecision(6) << s.max_tilt_rad << " rad ("
+            << fixed(s.max_tilt_rad * 180.0 / kPi, 3) << " deg)\n";
+  std::cout << "  ground          " << (s.crashed ? "CRASHED" : "no crash") << ", touchdowns "
+            << s.touchdowns << ", max touchdown speed " << fixed(s.max_touchdown_speed_m_s, 3)
+            << " m/s\n";
+  std::cout << "  wrote           " << s.log_path << " (" << s.log_rows << " rows), "
+            << s.summary_path << "\n";
+}
+
+int run_command(const RunOptions& o) {
+  Experiment e = load_experiment(o.experiment);
+  if (o.seed_given) {
+    // Parsed here, not by CLI11, whose unsigned conversion wraps "-1" around to 2^64 - 1.
+    std::uint64_t seed = 0;
+    const char* const end = o.seed.data() + o.seed.size();
+    const auto r = std::from_chars(o.seed.data(), end, seed);
+    require(!o.seed.empty() && r.ec == std::errc{} && r.ptr == end,
+            "--seed: expected an integer in [0, 18446744073709551615], got '", o.seed, "'");
+    e.seed = seed;
+  }
+  if (o.duration_given) {
+    require(std::isfinite(o.duration_s) && o.duration_s > 0.0,
+            "--duration: expected a number of seconds > 0, got ", o.duration_s);
+    e.duration_s = o.duration_s;
+  }
+  const RunSummary s = run_experiment(e, o.out_dir);
+  if (!o.quiet) print_summary(s);
+  if (!s.ok()) {
+    std::cerr << "error: run " << status_name(s.status) << ": " << s.failure_message
+              << " (log and summary written to " << o.out_dir << ")\n";
+    return kExitRunFailed;
+  }
+  return kExitOk;
+}
+
+int info_command(const std::string& path) {
+  const VehicleModel m = load_vehicle_model(path);
+  const Eigen::IOFormat matrix(8, 0, "  ", "\n", "    ", "");
+  std::cout << "model " << m.name() << " (" << path << ")\n";
+  std::cout << "  mass            " << m.mass_kg() << " kg\n";
+  std::cout << "  inertia (kg m^2)\n" << m.inertia_kgm2().format(matrix) << "\n";
+  std::cout << "  body drag A (N s/m)\n" << m.body_drag_Ns_per_m().format(matrix) << "\n";
+  std::cout << "  ground-effect height floor " << m.ground_effect_min_height_m() << " m\n";
+  std::cout << "  rotors          " << m.num_rotors() << "\n";
+  for (int i = 0; i < m.num_rotors(); ++i) {
+    const RotorParams& r = m.rotor(i);
+    std::cout << "    [" << i << "] position " << vec(r.position_m, 4) << " m, axis "
+              << vec(r.axis, 4) << ", spin " << (r.spin > 0 ? "+1" : "-1") << ", thrust "
+              << r.thrust_coefficients[0] << " w^2 " << signed_term(r.thrust_coefficients[1])
+              << " w " << signed_term(r.thrust_coefficients[2]) << " N, speed ["
+              << r.min_speed_rad_s << ", " << r.max_speed_rad_s << "] rad/s, tau "
+              << r.time_constant_rise_s << "/" << r.time_constant_fall_s << " s\n";
+  }
+  std::cout << "  allocation matrix ([T; tau_x; tau_y; tau_z] = A * rotor thrusts, 4 x "
+            << m.num_rotors() << ")\n"
+            << m.allocation_matrix().format(matrix) << "\n";
+  std::cout << "  pseudo-inverse A^+ (" << m.num_rotors() << " x 4)\n"
+            << m.allocation_pseudo_inverse().format(matrix) << "\n";
+  std::cout << "  wrench matrix rank " << m.wrench_rank() << "\n";
+  const RotorVector thrusts = m.hover_thrusts_N(), speeds = m.hover_speeds_rad_s();
+  std::cout << "  hover (g = 9.81 m/s^2)\n";
+  for (int i = 0; i < m.num_rotors(); ++i) {
+    std::cout << "    [" << i << "] thrust " << std::setprecision(8) << thrusts[i] << " N, speed "
+              << speeds[i] << " rad/s (" << speeds[i] * 60.0 / (2.0 * kPi) << " rpm)\n";
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"dronetwin: a deterministic, steppable digital twin of multirotor drones",
+               "dronetwin"};
+  app.set_version_flag("--version", std::string(dronetwin::version()));
+  app.require_subcommand(1);
+
+  RunOptions run;
+  CLI::App* run_cmd =
+      app.add_subcommand("run", "Run an experiment file; writes DIR/log.csv and DIR/summary.json");
+  run_cmd->add_option("experiment", run.experiment, "Experiment file (YAML)")->required();
+  run_cmd->add_option("--out,-o", run.out_dir, "Output directory (created if needed)")->required();
+  CLI::Option* seed =
+      run_cmd->add_option("--seed", run.seed, "Override the experiment's seed (integer >= 0)");
+  CLI::Option* duration =
+      run_cmd->add_option("--duration", run.duration_s, "Override duration_s (seconds)");
+  run_cmd->add_flag("--quiet,-q", run.quiet, "Print nothing on success");
+
+  std::string model_path;
+  CLI::App* info_cmd = app.add_subcommand(
+      "info", "Print a vehicle model: mass, inertia, rotors, allocation matrix, hover speeds");
+  info_cmd->add_option("model", model_path, "Vehicle model file (YAML)")->required();
+
+  // CLI11 reports a mistyped command as "A subcommand is required"; name it instead.
+  if (argc > 1 && argv[1][0] != '-') {
+    const std::string_view command = argv[1];
+    if (command != "run" && command != "info") {
+      std::cerr << "error: unknown command '" << command << "' (valid commands: run, info)\n"
+                << "Run with --help for more information.\n";
+      return kExitBadInput;
+    }
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // Help and --version are "errors" with exit code 0; everything else is bad input.
+    return app.exit(e) == 0 ? kExitOk : kExitBadInput;
+  }
+
+  try {
+    if (*run_cmd) {
+      run.seed_given = seed->count() > 0;
+      run.duration_given = duration->count() > 0;
+      return run_command(run);
+    }
+    return info_command(model_path);
+  } catch (const InvalidArgument& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "error: internal error: " << e.what() << "\n";
+    return kExitInternal;
+  }
+}
