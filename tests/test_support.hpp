@@ -1,9 +1,17 @@
 #pragma once
-// Shared helpers for the test suite: model loading by name, seeded random states.
+// Shared helpers for the test suite: model loading by name, seeded random states, the message of
+// an expected InvalidArgument, and the rows of a malformed-file corpus.
 
+#include <gtest/gtest.h>
+
+#include <cctype>
+#include <exception>
 #include <memory>
+#include <ostream>
 #include <string>
+#include <vector>
 
+#include "dronetwin/core/error.hpp"
 #include "dronetwin/io/model_loader.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
@@ -29,6 +37,41 @@ inline StateVector random_state(Random& rng, double z_min = 0.05, double z_max =
   x.segment<4>(6) = math::from_euler(rng.uniform() - 0.5, rng.uniform() - 0.5, 6 * rng.uniform());
   for (int i = 10; i < 13; ++i) x[i] = 4 * rng.uniform() - 2;
   return x;
+}
+
+/// The message of the InvalidArgument thrown by `f`; a test failure (and "") if `f` throws
+/// something else or nothing.
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const InvalidArgument& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "expected InvalidArgument, got another exception: " << e.what();
+    return {};
+  }
+  ADD_FAILURE() << "expected InvalidArgument, nothing was thrown";
+  return {};
+}
+
+/// One malformed file of a test corpus (a directory of tests/data) and what its error must say.
+struct BadFileCase {
+  const char* file;
+  /// Substrings the error message must contain.
+  std::vector<std::string> expected;
+};
+
+inline void PrintTo(const BadFileCase& c, std::ostream* os) { *os << c.file; }
+
+/// Test name of a corpus row for INSTANTIATE_TEST_SUITE_P: the file name up to the first '.',
+/// with every character other than a letter or digit replaced by '_'.
+inline std::string bad_file_case_name(const ::testing::TestParamInfo<BadFileCase>& info) {
+  std::string name = info.param.file;
+  name = name.substr(0, name.find('.'));
+  for (char& ch : name)
+    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+  return name;
 }
 
 }  // namespace dronetwin::test

@@ -18,6 +18,14 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <vector>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/io/experiment.hpp"
@@ -147,6 +155,42 @@ int info_command(const std::string& path) {
   return kExitOk;
 }
 
+// `dronetwin plot DIR`: runs the Python plotting module (python/dronetwin/plot.py) with Debian's
+// interpreter. DRONETWIN_PYTHON overrides the interpreter, DRONETWIN_PYTHONPATH the module path.
+int plot_command(const std::string& run_dir, const std::string& out_dir) {
+  const char* env_python = std::getenv("DRONETWIN_PYTHON");
+  const std::string python = env_python ? env_python : "/usr/bin/python3";
+  std::string module_dir;
+  if (const char* p = std::getenv("DRONETWIN_PYTHONPATH")) {
+    module_dir = p;
+  } else if (std::filesystem::exists(DRONETWIN_PYTHON_SOURCE_DIR "/dronetwin/plot.py")) {
+    module_dir = DRONETWIN_PYTHON_SOURCE_DIR;
+  } else {
+    module_dir = DRONETWIN_PYTHON_INSTALL_DIR;
+  }
+  std::vector<std::string> args{python, "-m", "dronetwin.plot", run_dir};
+  if (!out_dir.empty()) {
+    args.emplace_back("--out");
+    args.push_back(out_dir);
+  }
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const pid_t pid = fork();
+  if (pid < 0) throw std::runtime_error("plot: fork failed");
+  if (pid == 0) {
+    const char* old = std::getenv("PYTHONPATH");
+    const std::string path = old && *old ? module_dir + ":" + old : module_dir;
+    setenv("PYTHONPATH", path.c_str(), 1);
+    execv(python.c_str(), argv.data());
+    std::fprintf(stderr, "error: plot: cannot run %s (set DRONETWIN_PYTHON)\n", python.c_str());
+    _exit(kExitBadInput);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : kExitInternal;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -171,11 +215,18 @@ int main(int argc, char** argv) {
       "info", "Print a vehicle model: mass, inertia, rotors, allocation matrix, hover speeds");
   info_cmd->add_option("model", model_path, "Vehicle model file (YAML)")->required();
 
+  std::string plot_dir, plot_out;
+  CLI::App* plot_cmd = app.add_subcommand(
+      "plot", "Draw tracking, error, rotor-speed, force and 3-D path figures (PNG) from a run");
+  plot_cmd->add_option("run_dir", plot_dir, "Directory with log.csv (from `dronetwin run`)")
+      ->required();
+  plot_cmd->add_option("--out,-o", plot_out, "Where to write the PNGs (default: run_dir)");
+
   // CLI11 reports a mistyped command as "A subcommand is required"; name it instead.
   if (argc > 1 && argv[1][0] != '-') {
     const std::string_view command = argv[1];
-    if (command != "run" && command != "info") {
-      std::cerr << "error: unknown command '" << command << "' (valid commands: run, info)\n"
+    if (command != "run" && command != "info" && command != "plot") {
+      std::cerr << "error: unknown command '" << command << "' (valid commands: run, info, plot)\n"
                 << "Run with --help for more information.\n";
       return kExitBadInput;
     }
@@ -193,6 +244,7 @@ int main(int argc, char** argv) {
       run.duration_given = duration->count() > 0;
       return run_command(run);
     }
+    if (*plot_cmd) return plot_command(plot_dir, plot_out);
     return info_command(model_path);
   } catch (const InvalidArgument& e) {
     std::cerr << "error: " << e.what() << "\n";

@@ -1,312 +1,37 @@
-// Strict YAML binding of Experiment (format: docs/experiment-format.md). yaml-cpp stays in this
-// file. Every error starts with the source file and names the field path.
+// Strict YAML binding of Experiment (format: docs/experiment-format.md), on the shared strict
+// reader of yaml_strict.hpp. Every error starts with the source file and names the field path.
 #include "dronetwin/io/experiment.hpp"
 
 #include <yaml-cpp/yaml.h>
 
-#include <algorithm>
 #include <array>
-#include <cerrno>
-#include <charconv>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
-#include <map>
-#include <sstream>
+#include <string>
+#include <string_view>
 #include <system_error>
 #include <utility>
+#include <vector>
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "yaml_strict.hpp"
 
 namespace dronetwin {
 namespace {
 
 namespace fs = std::filesystem;
 
-// ---- scalars ----------------------------------------------------------------------------------
-
-bool is_digit(char c) { return c >= '0' && c <= '9'; }
-
-/// YAML 1.2 core-schema float: [-+]?(digits[.digits*]|.digits)([eE][-+]?digits)?, or
-/// [-+]?.inf / .nan in the three spellings of the schema. from_chars is locale-independent.
-bool parse_double(std::string_view s, double& out) {
-  std::string_view body = s;
-  const bool negative = !body.empty() && body.front() == '-';
-  if (!body.empty() && (body.front() == '-' || body.front() == '+')) body.remove_prefix(1);
-  if (body == ".inf" || body == ".Inf" || body == ".INF") {
-    out = negative ? -std::numeric_limits<double>::infinity()
-                   : std::numeric_limits<double>::infinity();
-    return true;
-  }
-  if (s == ".nan" || s == ".NaN" || s == ".NAN") {
-    out = std::numeric_limits<double>::quiet_NaN();
-    return true;
-  }
-  std::size_t i = 0, digits = 0;
-  for (; i < body.size() && is_digit(body[i]); ++i) ++digits;
-  if (i < body.size() && body[i] == '.') {
-    for (++i; i < body.size() && is_digit(body[i]); ++i) ++digits;
-  }
-  if (digits == 0) return false;
-  if (i < body.size() && (body[i] == 'e' || body[i] == 'E')) {
-    ++i;
-    if (i < body.size() && (body[i] == '+' || body[i] == '-')) ++i;
-    std::size_t exponent_digits = 0;
-    for (; i < body.size() && is_digit(body[i]); ++i) ++exponent_digits;
-    if (exponent_digits == 0) return false;
-  }
-  if (i != body.size()) return false;
-  double v = 0.0;
-  const auto r = std::from_chars(body.data(), body.data() + body.size(), v);
-  if (r.ec != std::errc{} || r.ptr != body.data() + body.size()) return false;
-  out = negative ? -v : v;
-  return true;
-}
-
-/// Decimal integer with an optional sign.
-template <class Int>
-bool parse_integer(std::string_view s, Int& out) {
-  std::string_view digits = s;
-  if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
-  const std::string_view unsigned_part =
-      !digits.empty() && digits.front() == '-' ? digits.substr(1) : digits;
-  if (unsigned_part.empty() || !std::all_of(unsigned_part.begin(), unsigned_part.end(), is_digit))
-    return false;
-  const auto r = std::from_chars(digits.data(), digits.data() + digits.size(), out);
-  return r.ec == std::errc{} && r.ptr == digits.data() + digits.size();
-}
-
-std::string format_number(double v) {
-  std::ostringstream out;
-  out.precision(17);
-  out << v;
-  return out.str();
-}
-
-// ---- key suggestions --------------------------------------------------------------------------
-
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  // Levenshtein distance, one row at a time.
-  std::vector<std::size_t> previous(b.size() + 1), current(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) previous[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    current[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t substitute = previous[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1);
-      current[j] = std::min({previous[j] + 1, current[j - 1] + 1, substitute});
-    }
-    std::swap(previous, current);
-  }
-  return previous[b.size()];
-}
+using io_detail::child_path;
+using io_detail::describe;
+using io_detail::format_number;
+using io_detail::item_path;
+using io_detail::Map;
+using io_detail::name_list;
+using io_detail::Reader;
 
 using Names = std::vector<std::string_view>;
-
-/// "; did you mean 'x'?" for the closest name, if it is close enough to be a typo.
-std::string did_you_mean(std::string_view unknown, const Names& valid) {
-  std::string_view best;
-  std::size_t best_distance = std::numeric_limits<std::size_t>::max();
-  for (std::string_view name : valid) {
-    const std::size_t d = edit_distance(unknown, name);
-    if (d < best_distance) best_distance = d, best = name;
-  }
-  const std::size_t tolerance = std::max<std::size_t>(2, unknown.size() / 3);
-  if (best.empty() || best_distance > tolerance) return {};
-  return "; did you mean '" + std::string(best) + "'?";
-}
-
-std::string list(const Names& names) {
-  std::string out;
-  for (std::string_view n : names) out += (out.empty() ? "" : ", ") + std::string(n);
-  return out;
-}
-
-std::string child(const std::string& parent, std::string_view key) {
-  return parent.empty() ? std::string(key) : parent + "." + std::string(key);
-}
-std::string item(const std::string& parent, std::size_t i) {
-  return parent + "[" + std::to_string(i) + "]";
-}
-
-// ---- node reader ------------------------------------------------------------------------------
-
-/// Untagged plain scalar (or an explicit !!float / !!int / !!bool tag): something that can be a
-/// number or a bool. A quoted "1.5" is a string.
-bool plain(const YAML::Node& node) {
-  if (!node.IsScalar()) return false;
-  const std::string& tag = node.Tag();
-  return tag == "?" || tag == "tag:yaml.org,2002:float" || tag == "tag:yaml.org,2002:int" ||
-         tag == "tag:yaml.org,2002:bool";
-}
-
-std::string describe(const YAML::Node& node) {
-  switch (node.Type()) {
-    case YAML::NodeType::Undefined:
-    case YAML::NodeType::Null:
-      return "nothing (null)";
-    case YAML::NodeType::Scalar:
-      return plain(node) ? "'" + node.Scalar() + "'" : "the string \"" + node.Scalar() + "\"";
-    case YAML::NodeType::Sequence:
-      return "a sequence of " + std::to_string(node.size()) +
-             (node.size() == 1 ? " item" : " items");
-    case YAML::NodeType::Map:
-      return "a map";
-  }
-  return "an unknown node";
-}
-
-class Reader;
-
-/// The checked entries of one YAML map, with the path of the map for messages.
-class Map {
- public:
-  Map(const Reader& rd, YAML::Node node, std::string path, std::map<std::string, YAML::Node> e)
-      : rd_(&rd), node_(std::move(node)), path_(std::move(path)), entries_(std::move(e)) {}
-
-  bool has(std::string_view key) const { return entries_.count(std::string(key)) != 0; }
-  /// The value of an optional key, or an undefined node.
-  YAML::Node get(std::string_view key) const {
-    const auto it = entries_.find(std::string(key));
-    return it == entries_.end() ? YAML::Node(YAML::NodeType::Undefined) : it->second;
-  }
-  /// The value of a required key; fails naming the map and the key when it is absent.
-  YAML::Node required(std::string_view key) const;
-  std::string path(std::string_view key) const { return child(path_, key); }
-  const std::string& path() const { return path_; }
-  const YAML::Node& node() const { return node_; }
-
- private:
-  const Reader* rd_;
-  YAML::Node node_;
-  std::string path_;
-  std::map<std::string, YAML::Node> entries_;
-};
-
-class Reader {
- public:
-  explicit Reader(std::string source) : source_(std::move(source)) {}
-  const std::string& source() const { return source_; }
-
-  /// Throws "<source>: <path>: <message> (line n)".
-  [[noreturn]] void fail(const YAML::Node& at, const std::string& path,
-                         const std::string& message) const {
-    std::string text = source_ + ": ";
-    if (!path.empty()) text += path + ": ";
-    text += message;
-    // yaml-cpp marks a null value at the following token, often on the next line: no line then.
-    if (at.IsDefined() && !at.IsNull() && at.Mark().line >= 0)
-      text += " (line " + std::to_string(at.Mark().line + 1) + ")";
-    throw InvalidArgument(text);
-  }
-
-  Map map(const YAML::Node& node, const std::string& path, const Names& allowed,
-          const std::string& expected) const {
-    if (!node.IsMap()) fail(node, path, "expected " + expected + ", got " + describe(node));
-    std::map<std::string, YAML::Node> entries;
-    for (const auto& kv : node) {
-      if (!kv.first.IsScalar())
-        fail(kv.first, path, "expected keys to be names, got " + describe(kv.first));
-      const std::string& key = kv.first.Scalar();
-      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
-        fail(kv.first, path,
-             "unknown key '" + key + "'" + did_you_mean(key, allowed) +
-                 " (valid keys: " + list(allowed) + ")");
-      }
-      if (entries.count(key) != 0) fail(kv.first, path, "duplicate key '" + key + "'");
-      entries.emplace(key, kv.second);
-    }
-    return Map(*this, node, path, std::move(entries));
-  }
-
-  /// A finite number.
-  double number(const YAML::Node& node, const std::string& path) const {
-    double v = 0.0;
-    if (!plain(node) || !parse_double(node.Scalar(), v))
-      fail(node, path, "expected a number, got " + describe(node));
-    if (!std::isfinite(v)) fail(node, path, "expected a finite number, got " + node.Scalar());
-    return v;
-  }
-
-  double positive(const YAML::Node& node, const std::string& path) const {
-    const double v = number(node, path);
-    if (!(v > 0.0)) fail(node, path, "expected a number > 0, got " + node.Scalar());
-    return v;
-  }
-
-  template <class Int>
-  Int integer(const YAML::Node& node, const std::string& path, const std::string& what) const {
-    Int v{};
-    if (!plain(node) || !parse_integer(node.Scalar(), v))
-      fail(node, path, "expected " + what + ", got " + describe(node));
-    return v;
-  }
-
-  bool boolean(const YAML::Node& node, const std::string& path) const {
-    if (plain(node)) {
-      const std::string& s = node.Scalar();
-      if (s == "true" || s == "True" || s == "TRUE") return true;
-      if (s == "false" || s == "False" || s == "FALSE") return false;
-    }
-    fail(node, path, "expected true or false, got " + describe(node));
-  }
-
-  std::string string(const YAML::Node& node, const std::string& path) const {
-    if (!node.IsScalar() || node.Scalar().empty())
-      fail(node, path, "expected a non-empty string, got " + describe(node));
-    return node.Scalar();
-  }
-
-  /// One of `names` (a plain or quoted string); index into names.
-  std::size_t choice(const YAML::Node& node, const std::string& path, const Names& names,
-                     const std::string& what) const {
-    if (!node.IsScalar())
-      fail(node, path, "expected " + what + " (" + list(names) + "), got " + describe(node));
-    const std::string& s = node.Scalar();
-    for (std::size_t i = 0; i < names.size(); ++i)
-      if (names[i] == s) return i;
-    fail(node, path,
-         "unknown " + what + " '" + s + "'" + did_you_mean(s, names) + " (valid: " + list(names) +
-             ")");
-  }
-
-  /// A sequence of finite numbers of any length.
-  std::vector<double> numbers(const YAML::Node& node, const std::string& path,
-                              const std::string& expected) const {
-    if (!node.IsSequence()) fail(node, path, "expected " + expected + ", got " + describe(node));
-    std::vector<double> out(node.size());
-    for (std::size_t i = 0; i < node.size(); ++i) out[i] = number(node[i], item(path, i));
-    return out;
-  }
-
-  /// Exactly N finite numbers; `meaning` explains them ("x, y, z").
-  template <int N>
-  Eigen::Matrix<double, N, 1> fixed(const YAML::Node& node, const std::string& path,
-                                    const std::string& meaning) const {
-    const std::string expected = std::to_string(N) + " numbers (" + meaning + ")";
-    if (!node.IsSequence()) fail(node, path, "expected " + expected + ", got " + describe(node));
-    if (node.size() != static_cast<std::size_t>(N))
-      fail(node, path, "expected " + expected + ", got " + std::to_string(node.size()));
-    Eigen::Matrix<double, N, 1> out;
-    for (int i = 0; i < N; ++i)
-      out[i] = number(node[static_cast<std::size_t>(i)], item(path, static_cast<std::size_t>(i)));
-    return out;
-  }
-
- private:
-  std::string source_;
-};
-
-YAML::Node Map::required(std::string_view key) const {
-  const auto it = entries_.find(std::string(key));
-  if (it == entries_.end()) {
-    // The line of a nested map helps find it; the top level's first line does not.
-    rd_->fail(path_.empty() ? YAML::Node(YAML::NodeType::Undefined) : node_, path_,
-              "missing required key '" + std::string(key) + "'");
-  }
-  return it->second;
-}
 
 // ---- key tables -------------------------------------------------------------------------------
 
@@ -348,7 +73,7 @@ RotorSpeedSetting read_rotor_speeds(const Reader& rd, const YAML::Node& node,
   std::vector<double> v = rd.numbers(node, path, expected);
   for (std::size_t i = 0; i < v.size(); ++i) {
     if (v[i] < 0.0)
-      rd.fail(node[i], item(path, i),
+      rd.fail(node[i], item_path(path, i),
               "expected a rotor speed >= 0 rad/s (speeds are magnitudes; the spin direction is a "
               "model parameter), got " +
                   format_number(v[i]));
@@ -464,23 +189,24 @@ LogSettings read_log(const Reader& rd, const YAML::Node& node, const std::string
 }
 
 ExperimentInput read_input(const Reader& rd, const YAML::Node& node, const std::string& path) {
-  const std::string expected = "a map with a 'type' (" + list(kInputTypes) + ")";
+  const std::string expected = "a map with a 'type' (" + name_list(kInputTypes) + ")";
   if (!node.IsMap()) rd.fail(node, path, "expected " + expected + ", got " + describe(node));
   YAML::Node type_node(YAML::NodeType::Undefined);
   for (const auto& kv : node)
     if (kv.first.IsScalar() && kv.first.Scalar() == "type") type_node = kv.second;
   if (!type_node.IsDefined())
-    rd.fail(node, path, "missing required key 'type' (" + list(kInputTypes) + ")");
-  const std::size_t type = rd.choice(type_node, child(path, "type"), kInputTypes, "input type");
+    rd.fail(node, path, "missing required key 'type' (" + name_list(kInputTypes) + ")");
+  const std::size_t type =
+      rd.choice(type_node, child_path(path, "type"), kInputTypes, "input type");
 
   switch (type) {
     case 0: {
-      const Map m = rd.map(node, path, {"type", "rotor_speeds_rad_s"}, expected);
+      const Map m = rd.map(node, path, Names{"type", "rotor_speeds_rad_s"}, expected);
       return ConstantRotorSpeedsInput{
           read_rotor_speeds(rd, m.required("rotor_speeds_rad_s"), m.path("rotor_speeds_rad_s"))};
     }
     case 1: {
-      const Map m = rd.map(node, path, {"type", "segments"}, expected);
+      const Map m = rd.map(node, path, Names{"type", "segments"}, expected);
       const YAML::Node segs = m.required("segments");
       const std::string segs_path = m.path("segments");
       if (!segs.IsSequence() || segs.size() == 0)
@@ -489,7 +215,7 @@ ExperimentInput read_input(const Reader& rd, const YAML::Node& node, const std::
             "expected a non-empty list of {start_s, rotor_speeds_rad_s}, got " + describe(segs));
       PiecewiseRotorSpeedsInput in;
       for (std::size_t i = 0; i < segs.size(); ++i) {
-        const Map s = rd.map(segs[i], item(segs_path, i), kSegmentKeys,
+        const Map s = rd.map(segs[i], item_path(segs_path, i), kSegmentKeys,
                              "a map {start_s, rotor_speeds_rad_s}");
         RotorSpeedSegment seg;
         const YAML::Node start = s.required("start_s");
@@ -500,7 +226,7 @@ ExperimentInput read_input(const Reader& rd, const YAML::Node& node, const std::
         if (i > 0 && !(seg.start_s > in.segments.back().start_s))
           rd.fail(start, s.path("start_s"),
                   "expected a start after " + format_number(in.segments.back().start_s) +
-                      " s (the start of " + item(segs_path, i - 1) +
+                      " s (the start of " + item_path(segs_path, i - 1) +
                       "; starts must strictly increase), got " + start.Scalar());
         seg.rotor_speeds =
             read_rotor_speeds(rd, s.required("rotor_speeds_rad_s"), s.path("rotor_speeds_rad_s"));
@@ -509,7 +235,7 @@ ExperimentInput read_input(const Reader& rd, const YAML::Node& node, const std::
       return in;
     }
     case 2: {
-      const Map m = rd.map(node, path, {"type", "u", "allocation"}, expected);
+      const Map m = rd.map(node, path, Names{"type", "u", "allocation"}, expected);
       ConstantGeneralizedForceInput in;
       in.u = rd.fixed<4>(m.required("u"), m.path("u"), "T in N, tau_x, tau_y, tau_z in N m");
       if (m.has("allocation")) {
@@ -521,7 +247,7 @@ ExperimentInput read_input(const Reader& rd, const YAML::Node& node, const std::
       return in;
     }
     default:
-      rd.map(node, path, {"type"}, expected);
+      rd.map(node, path, Names{"type"}, expected);
       return HoverInput{};
   }
 }
@@ -576,23 +302,6 @@ void check_experiment(const Experiment& e, const std::string& source) {
   }
   // The remaining run settings with the simulator's own check.
   (void)e.sim_config();
-}
-
-std::string read_file(const std::string& path) {
-  std::error_code ec;
-  if (fs::is_directory(path, ec))
-    throw InvalidArgument(path + ": cannot read experiment file: it is a directory");
-  errno = 0;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    const std::string reason =
-        errno != 0 ? std::generic_category().message(errno) : std::string("unknown error");
-    throw InvalidArgument(path + ": cannot open experiment file (" + reason + ")");
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw InvalidArgument(path + ": error while reading experiment file");
-  return text.str();
 }
 
 template <class... Fs>
@@ -668,22 +377,8 @@ std::int64_t segment_start_step(double start_s, double dt_s) {
 
 Experiment parse_experiment(const std::string& yaml_text, const std::string& source_name) {
   const Reader rd(source_name);
-  std::vector<YAML::Node> documents;
-  try {
-    documents = YAML::LoadAll(yaml_text);
-  } catch (const YAML::ParserException& e) {
-    throw InvalidArgument(source_name + ": line " + std::to_string(e.mark.line + 1) + ", column " +
-                          std::to_string(e.mark.column + 1) + ": YAML syntax error: " + e.msg);
-  } catch (const YAML::Exception& e) {
-    throw InvalidArgument(source_name + ": cannot parse YAML: " + e.what());
-  }
   const std::string expected = "a map of experiment settings";
-  if (documents.empty())
-    throw InvalidArgument(source_name + ": empty document; expected " + expected);
-  if (documents.size() > 1)
-    rd.fail(documents[1], "",
-            "expected one YAML document, got " + std::to_string(documents.size()));
-  const Map top = rd.map(documents.front(), "", kTopLevelKeys, expected);
+  const Map top = rd.map(rd.parse(yaml_text, expected), "", kTopLevelKeys, expected);
   for (std::string_view key : kRequiredTopLevelKeys) (void)top.required(key);
 
   Experiment e;
@@ -722,7 +417,7 @@ Experiment parse_experiment(const std::string& yaml_text, const std::string& sou
 }
 
 Experiment load_experiment(const std::string& path) {
-  return parse_experiment(read_file(path), path);
+  return parse_experiment(io_detail::read_text_file(path, "experiment file"), path);
 }
 
 void validate(const Experiment& experiment) { check_experiment(experiment, experiment.source); }

@@ -1,88 +1,37 @@
-// Strict YAML binding of VehicleSpec (format: docs/model-format.md). The only file that includes
-// yaml-cpp. Every error names the source, the field path and what was expected versus found.
+// Strict YAML binding of VehicleSpec (format: docs/model-format.md), on the shared strict reader
+// of yaml_strict.hpp, and the writer. Every error names the source, the field path and what was
+// expected versus found.
 #include "dronetwin/io/model_loader.hpp"
 
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <array>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstddef>
-#include <filesystem>
 #include <fstream>
-#include <limits>
-#include <map>
-#include <sstream>
+#include <string>
 #include <string_view>
 #include <system_error>
 #include <utility>
 #include <vector>
 
 #include "dronetwin/core/error.hpp"
+#include "yaml_strict.hpp"
 
 namespace dronetwin {
 namespace {
 
-// ---- scalar grammar ---------------------------------------------------------------------------
-// Numbers follow the YAML 1.2 core schema: [-+]?(digits[.digits]|.digits)([eE][-+]?digits)?, plus
-// .inf/.Inf/.INF (signed) and .nan/.NaN/.NAN. std::from_chars is locale-independent and correctly
-// rounded, so the writer's shortest round-trip output reads back bit for bit.
+using io_detail::describe;
+using io_detail::item_path;
+using io_detail::Map;
+using io_detail::name_list;
+using io_detail::NonFinite;
+using io_detail::Reader;
 
-bool is_digit(char c) { return c >= '0' && c <= '9'; }
-
-bool parse_float_text(std::string_view s, double& out) {
-  std::string_view body = s;
-  bool negative = false;
-  if (!body.empty() && (body.front() == '+' || body.front() == '-')) {
-    negative = body.front() == '-';
-    body.remove_prefix(1);
-  }
-  if (body == ".inf" || body == ".Inf" || body == ".INF") {
-    out = negative ? -std::numeric_limits<double>::infinity()
-                   : std::numeric_limits<double>::infinity();
-    return true;
-  }
-  if (s == ".nan" || s == ".NaN" || s == ".NAN") {
-    out = std::numeric_limits<double>::quiet_NaN();
-    return true;
-  }
-  // Check the grammar ourselves: from_chars would also accept "inf", "nan" and "infinity".
-  std::size_t i = 0, mantissa_digits = 0;
-  while (i < body.size() && is_digit(body[i])) ++i, ++mantissa_digits;
-  if (i < body.size() && body[i] == '.') {
-    ++i;
-    while (i < body.size() && is_digit(body[i])) ++i, ++mantissa_digits;
-  }
-  if (mantissa_digits == 0) return false;
-  if (i < body.size() && (body[i] == 'e' || body[i] == 'E')) {
-    ++i;
-    if (i < body.size() && (body[i] == '+' || body[i] == '-')) ++i;
-    std::size_t exponent_digits = 0;
-    while (i < body.size() && is_digit(body[i])) ++i, ++exponent_digits;
-    if (exponent_digits == 0) return false;
-  }
-  if (i != body.size()) return false;
-  // from_chars takes a leading '-' but not '+'.
-  const std::string_view text = s.front() == '+' ? body : s;
-  double value = 0.0;
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (ec != std::errc{} || end != text.data() + text.size()) return false;
-  out = value;
-  return true;
-}
-
-bool parse_int_text(std::string_view s, long long& out) {
-  std::string_view digits = s;
-  if (!digits.empty() && (digits.front() == '+' || digits.front() == '-')) digits.remove_prefix(1);
-  if (digits.empty() || !std::all_of(digits.begin(), digits.end(), is_digit)) return false;
-  const std::string_view text = s.front() == '+' ? digits : s;  // from_chars rejects '+'
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
-  return ec == std::errc{} && end == text.data() + text.size();
-}
-
-/// Shortest decimal text that reads back to exactly `v` (std::to_chars round-trip guarantee).
+/// Shortest decimal text that reads back to exactly `v` (std::to_chars round-trip guarantee; the
+/// reader's number parsing is correctly rounded).
 std::string format_double(double v) {
   if (std::isnan(v)) return ".nan";
   if (std::isinf(v)) return v > 0 ? ".inf" : "-.inf";
@@ -101,186 +50,42 @@ constexpr std::array<std::string_view, 7> kTopLevelKeys = {
 constexpr std::array<std::string_view, 5> kRequiredTopLevelKeys = {
     "name", "mass_kg", "inertia_kgm2", "body_drag_Ns_per_m", "rotors"};
 
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0u : 1u)});
-      diagonal = up;
+// ---- reader helpers ---------------------------------------------------------------------------
+
+/// "missing required key 'a'" or "missing required keys 'a', 'b'".
+std::string missing_keys_message(const std::vector<std::string_view>& missing) {
+  std::string keys;
+  for (std::string_view k : missing) keys += (keys.empty() ? "'" : ", '") + std::string(k) + "'";
+  return (missing.size() == 1 ? "missing required key " : "missing required keys ") + keys;
+}
+
+std::array<double, 3> read_three_numbers(const Reader& rd, const YAML::Node& node,
+                                         const std::string& path) {
+  const Vec3 v = rd.fixed<3>(node, path, "");
+  return {v[0], v[1], v[2]};
+}
+
+/// Either 3 numbers (the diagonal) or 3 rows of 3 numbers (the full matrix).
+Mat3 read_mat3(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  const std::string expected = "expected 3 numbers (the diagonal) or 3 rows of 3 numbers, got ";
+  if (!node.IsSequence()) rd.fail(node, path, expected + describe(node));
+  if (node.size() != 3)
+    rd.fail(node, path, expected + "a sequence of " + std::to_string(node.size()));
+  std::size_t rows = 0;
+  for (std::size_t i = 0; i < 3; ++i) rows += node[i].IsSequence() ? 1 : 0;
+  Mat3 m = Mat3::Zero();
+  if (rows == 0) {
+    m.diagonal() = rd.fixed<3>(node, path, "");
+  } else if (rows == 3) {
+    for (std::size_t i = 0; i < 3; ++i) {
+      m.row(static_cast<Eigen::Index>(i)) =
+          rd.fixed<3>(node[i], item_path(path, i), "").transpose();
     }
+  } else {
+    rd.fail(node, path, expected + "a mix of numbers and rows");
   }
-  return row[b.size()];
+  return m;
 }
-
-template <class Keys>
-std::string suggestion(std::string_view unknown, const Keys& valid) {
-  std::string_view best;
-  std::size_t best_distance = std::numeric_limits<std::size_t>::max();
-  for (std::string_view k : valid) {
-    const std::size_t d = edit_distance(unknown, k);
-    if (d < best_distance) best_distance = d, best = k;
-  }
-  if (best.empty() || best_distance > std::max<std::size_t>(2, unknown.size() / 3)) return {};
-  return "; did you mean '" + std::string(best) + "'?";
-}
-
-template <class Keys>
-std::string key_list(const Keys& keys) {
-  std::string out;
-  for (std::string_view k : keys) out += (out.empty() ? "" : ", ") + std::string(k);
-  return out;
-}
-
-// ---- reader -----------------------------------------------------------------------------------
-
-/// Path of a field for messages: "mass_kg", "rotors[2].position_m", "inertia_kgm2[1][0]".
-std::string join(const std::string& parent, std::string_view key) {
-  return parent.empty() ? std::string(key) : parent + "." + std::string(key);
-}
-std::string index(const std::string& parent, std::size_t i) {
-  return parent + "[" + std::to_string(i) + "]";
-}
-
-/// A scalar that may hold a number: plain (untagged) or tagged !!float / !!int. A quoted "1.5" or
-/// a !!str scalar is a string, and a string is not a number.
-bool plain_or_numeric(const YAML::Node& node) {
-  if (!node.IsScalar()) return false;
-  const std::string& tag = node.Tag();
-  return tag == "?" || tag == "tag:yaml.org,2002:float" || tag == "tag:yaml.org,2002:int";
-}
-
-/// What a node is, for "got ..." in messages.
-std::string describe(const YAML::Node& node) {
-  switch (node.Type()) {
-    case YAML::NodeType::Undefined:
-    case YAML::NodeType::Null:
-      return "nothing (null)";
-    case YAML::NodeType::Scalar:
-      if (!plain_or_numeric(node)) return "the string \"" + node.Scalar() + "\"";
-      return "'" + node.Scalar() + "'";
-    case YAML::NodeType::Sequence:
-      return node.size() == 1 ? "a sequence of 1 item"
-                              : "a sequence of " + std::to_string(node.size()) + " items";
-    case YAML::NodeType::Map:
-      return "a map";
-  }
-  return "an unknown node";
-}
-
-/// A key/value pair of a YAML map, with the key node kept for its line number.
-struct Entry {
-  YAML::Node key;
-  YAML::Node value;
-};
-using Entries = std::map<std::string, Entry, std::less<>>;
-
-class Reader {
- public:
-  explicit Reader(std::string source) : source_(std::move(source)) {}
-
-  [[noreturn]] void fail(const YAML::Mark& mark, const std::string& path,
-                         const std::string& message) const {
-    std::string text = source_ + ": ";
-    if (!path.empty()) text += path + ": ";
-    text += message;
-    if (!mark.is_null() && mark.line >= 0) text += " (line " + std::to_string(mark.line + 1) + ")";
-    throw InvalidArgument(text);
-  }
-  [[noreturn]] void fail(const YAML::Node& at, const std::string& path,
-                         const std::string& message) const {
-    // yaml-cpp marks an empty (null) value at the next token, often the next line: no line then.
-    fail(at.IsDefined() && !at.IsNull() ? at.Mark() : YAML::Mark::null_mark(), path, message);
-  }
-
-  /// The entries of a map node, rejecting non-map nodes, non-scalar keys, duplicate keys and keys
-  /// not in `allowed`.
-  template <class Keys>
-  Entries entries(const YAML::Node& node, const std::string& path, const Keys& allowed,
-                  const std::string& expected) const {
-    if (!node.IsMap()) fail(node, path, "expected " + expected + ", got " + describe(node));
-    Entries out;
-    for (const auto& kv : node) {
-      const YAML::Node& key = kv.first;
-      if (!key.IsScalar()) fail(key, path, "expected keys to be names, got " + describe(key));
-      const std::string& name = key.Scalar();
-      if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
-        fail(key, path,
-             "unknown key '" + name + "'" + suggestion(name, allowed) +
-                 " (valid keys: " + key_list(allowed) + ")");
-      }
-      if (out.count(name) != 0) fail(key, path, "duplicate key '" + name + "'");
-      out.emplace(name, Entry{key, kv.second});
-    }
-    return out;
-  }
-
-  double number(const YAML::Node& node, const std::string& path) const {
-    double v = 0.0;
-    if (!plain_or_numeric(node) || !parse_float_text(node.Scalar(), v))
-      fail(node, path, "expected a number, got " + describe(node));
-    return v;
-  }
-
-  int integer(const YAML::Node& node, const std::string& path) const {
-    long long v = 0;
-    if (!plain_or_numeric(node) || !parse_int_text(node.Scalar(), v) ||
-        v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
-      fail(node, path, "expected an integer, got " + describe(node));
-    return static_cast<int>(v);
-  }
-
-  std::string string(const YAML::Node& node, const std::string& path) const {
-    if (!node.IsScalar() || node.Scalar().empty())
-      fail(node, path, "expected a non-empty string, got " + describe(node));
-    return node.Scalar();
-  }
-
-  std::array<double, 3> three_numbers(const YAML::Node& node, const std::string& path) const {
-    if (!node.IsSequence() || node.size() != 3) {
-      fail(node, path,
-           "expected 3 numbers, got " +
-               (node.IsSequence() ? std::to_string(node.size()) : describe(node)));
-    }
-    std::array<double, 3> out{};
-    for (std::size_t i = 0; i < 3; ++i) out[i] = number(node[i], index(path, i));
-    return out;
-  }
-
-  Vec3 vec3(const YAML::Node& node, const std::string& path) const {
-    const auto a = three_numbers(node, path);
-    return Vec3(a[0], a[1], a[2]);
-  }
-
-  /// Either 3 numbers (the diagonal) or 3 rows of 3 numbers (the full matrix).
-  Mat3 mat3(const YAML::Node& node, const std::string& path) const {
-    const std::string expected = "expected 3 numbers (the diagonal) or 3 rows of 3 numbers, got ";
-    if (!node.IsSequence()) fail(node, path, expected + describe(node));
-    if (node.size() != 3)
-      fail(node, path, expected + "a sequence of " + std::to_string(node.size()));
-    std::size_t rows = 0;
-    for (std::size_t i = 0; i < 3; ++i) rows += node[i].IsSequence() ? 1 : 0;
-    Mat3 m = Mat3::Zero();
-    if (rows == 0) {
-      const auto d = three_numbers(node, path);
-      m.diagonal() << d[0], d[1], d[2];
-    } else if (rows == 3) {
-      for (std::size_t i = 0; i < 3; ++i) {
-        const auto r = three_numbers(node[i], index(path, i));
-        m.row(static_cast<Eigen::Index>(i)) << r[0], r[1], r[2];
-      }
-    } else {
-      fail(node, path, expected + "a mix of numbers and rows");
-    }
-    return m;
-  }
-
- private:
-  std::string source_;
-};
 
 // ---- rotor fields -----------------------------------------------------------------------------
 
@@ -311,13 +116,13 @@ std::vector<std::string_view> rotor_keys(bool with_position) {
 void set_rotor_field(const Reader& rd, std::string_view key, const YAML::Node& node,
                      const std::string& path, RotorParams& rotor) {
   if (key == "position_m") {
-    rotor.position_m = rd.vec3(node, path);
+    rotor.position_m = rd.fixed<3>(node, path, "");
   } else if (key == "axis") {
-    rotor.axis = rd.vec3(node, path);
+    rotor.axis = rd.fixed<3>(node, path, "");
   } else if (key == "spin") {
-    rotor.spin = rd.integer(node, path);
+    rotor.spin = rd.integer<int>(node, path, "an integer");
   } else if (key == "thrust_coefficients") {
-    rotor.thrust_coefficients = rd.three_numbers(node, path);
+    rotor.thrust_coefficients = read_three_numbers(rd, node, path);
   } else {
     for (const auto& [name, member] : kRotorNumbers) {
       if (name == key) {
@@ -343,12 +148,11 @@ RotorDefaults read_rotor_defaults(const Reader& rd, const YAML::Node& node) {
                 "'position_m' cannot have a default; give every rotor its own position_m");
     }
   }
-  const auto entries = rd.entries(node, path, rotor_keys(false), "a map of rotor keys");
+  const Map m = rd.map(node, path, rotor_keys(false), "a map of rotor keys");
   RotorDefaults out;
   for (std::string_view key : rotor_keys(false)) {
-    const auto it = entries.find(key);
-    if (it == entries.end()) continue;
-    set_rotor_field(rd, key, it->second.value, join(path, key), out.values);
+    if (!m.has(key)) continue;
+    set_rotor_field(rd, key, m.get(key), m.path(key), out.values);
     out.given.push_back(key);
   }
   return out;
@@ -356,25 +160,21 @@ RotorDefaults read_rotor_defaults(const Reader& rd, const YAML::Node& node) {
 
 RotorParams read_rotor(const Reader& rd, const YAML::Node& node, std::size_t i,
                        const RotorDefaults& defaults) {
-  const std::string path = index("rotors", i);
-  const auto entries = rd.entries(node, path, rotor_keys(true), "a map of rotor keys");
+  const std::string path = item_path("rotors", i);
+  const Map m = rd.map(node, path, rotor_keys(true), "a map of rotor keys");
   RotorParams rotor = defaults.values;
-  std::string missing;
-  std::size_t num_missing = 0;
+  std::vector<std::string_view> missing;
   for (std::string_view key : rotor_keys(true)) {
-    const auto it = entries.find(key);
-    if (it != entries.end()) {
-      set_rotor_field(rd, key, it->second.value, join(path, key), rotor);
+    if (m.has(key)) {
+      set_rotor_field(rd, key, m.get(key), m.path(key), rotor);
     } else if (key != "axis" && std::find(defaults.given.begin(), defaults.given.end(), key) ==
                                     defaults.given.end()) {
-      missing += (missing.empty() ? "'" : ", '") + std::string(key) + "'";
-      ++num_missing;
+      missing.push_back(key);
     }
   }
-  if (num_missing > 0) {
+  if (!missing.empty()) {
     rd.fail(node, path,
-            std::string(num_missing == 1 ? "missing required key " : "missing required keys ") +
-                missing + " (set in neither the rotor nor rotor_defaults)");
+            missing_keys_message(missing) + " (set in neither the rotor nor rotor_defaults)");
   }
   return rotor;
 }
@@ -398,79 +198,36 @@ void emit_mat3(YAML::Emitter& out, const Mat3& m) {
   out << YAML::EndSeq;
 }
 
-std::string read_text_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw InvalidArgument(path + ": cannot read model file: it is a directory");
-  errno = 0;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    const std::string reason =
-        errno != 0 ? std::generic_category().message(errno) : std::string("unknown error");
-    throw InvalidArgument(path + ": cannot open model file (" + reason + ")");
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw InvalidArgument(path + ": error while reading model file");
-  return text.str();
-}
-
 }  // namespace
 
 // ---- public API -------------------------------------------------------------------------------
 
 VehicleSpec parse_vehicle_spec(const std::string& yaml_text, const std::string& source_name) {
-  const Reader rd(source_name);
-  std::vector<YAML::Node> documents;
-  try {
-    documents = YAML::LoadAll(yaml_text);
-  } catch (const YAML::ParserException& e) {
-    throw InvalidArgument(source_name + ": line " + std::to_string(e.mark.line + 1) + ", column " +
-                          std::to_string(e.mark.column + 1) + ": YAML syntax error: " + e.msg);
-  } catch (const YAML::Exception& e) {
-    throw InvalidArgument(source_name + ": cannot parse YAML: " + e.what());
-  }
-  const std::string top_expected = "a map with the keys " + key_list(kTopLevelKeys);
-  if (documents.empty())
-    rd.fail(YAML::Mark::null_mark(), "", "empty document; expected " + top_expected);
-  if (documents.size() > 1) {
-    rd.fail(documents[1], "",
-            "expected one YAML document, got " + std::to_string(documents.size()));
-  }
-  const YAML::Node& root = documents.front();
-  if (!root.IsMap()) rd.fail(root, "", "expected " + top_expected + ", got " + describe(root));
-  const Entries top = rd.entries(root, "", kTopLevelKeys, top_expected);
+  // Infinite and NaN values read as numbers: VehicleModel's validation rejects them naming the
+  // field, with "expected a finite number" rather than "not a number" (docs/model-format.md).
+  const Reader rd(source_name, NonFinite::kAllow);
+  const std::string top_expected = "a map with the keys " + name_list(kTopLevelKeys);
+  const Map top = rd.map(rd.parse(yaml_text, top_expected), "", kTopLevelKeys, top_expected);
 
-  std::string missing;
-  std::size_t num_missing = 0;
-  for (std::string_view k : kRequiredTopLevelKeys) {
-    if (top.count(k) != 0) continue;
-    missing += (missing.empty() ? "'" : ", '") + std::string(k) + "'";
-    ++num_missing;
-  }
-  if (num_missing > 0) {
-    rd.fail(YAML::Mark::null_mark(), "",
-            std::string(num_missing == 1 ? "missing required key " : "missing required keys ") +
-                missing);
-  }
+  std::vector<std::string_view> missing;
+  for (std::string_view k : kRequiredTopLevelKeys)
+    if (!top.has(k)) missing.push_back(k);
+  if (!missing.empty()) rd.fail("", missing_keys_message(missing));
 
-  const auto value = [&top](std::string_view key) -> const YAML::Node& {
-    return top.find(key)->second.value;
-  };
   VehicleSpec spec;
   spec.source = source_name;
-  spec.name = rd.string(value("name"), "name");
-  spec.mass_kg = rd.number(value("mass_kg"), "mass_kg");
-  spec.inertia_kgm2 = rd.mat3(value("inertia_kgm2"), "inertia_kgm2");
-  spec.body_drag_Ns_per_m = rd.mat3(value("body_drag_Ns_per_m"), "body_drag_Ns_per_m");
-  if (top.count("ground_effect_min_height_m") != 0) {
+  spec.name = rd.string(top.get("name"), "name");
+  spec.mass_kg = rd.number(top.get("mass_kg"), "mass_kg");
+  spec.inertia_kgm2 = read_mat3(rd, top.get("inertia_kgm2"), "inertia_kgm2");
+  spec.body_drag_Ns_per_m = read_mat3(rd, top.get("body_drag_Ns_per_m"), "body_drag_Ns_per_m");
+  if (top.has("ground_effect_min_height_m")) {
     spec.ground_effect_min_height_m =
-        rd.number(value("ground_effect_min_height_m"), "ground_effect_min_height_m");
+        rd.number(top.get("ground_effect_min_height_m"), "ground_effect_min_height_m");
   }
   RotorDefaults defaults;
-  if (top.count("rotor_defaults") != 0) defaults = read_rotor_defaults(rd, value("rotor_defaults"));
+  if (top.has("rotor_defaults")) defaults = read_rotor_defaults(rd, top.get("rotor_defaults"));
 
-  const YAML::Node& rotors = value("rotors");
+  const YAML::Node rotors = top.get("rotors");
   if (!rotors.IsSequence())
     rd.fail(rotors, "rotors", "expected a sequence of rotor maps, got " + describe(rotors));
   spec.rotors.reserve(rotors.size());
@@ -480,7 +237,7 @@ VehicleSpec parse_vehicle_spec(const std::string& yaml_text, const std::string& 
 }
 
 VehicleSpec load_vehicle_spec(const std::string& path) {
-  return parse_vehicle_spec(read_text_file(path), path);
+  return parse_vehicle_spec(io_detail::read_text_file(path, "model file"), path);
 }
 
 VehicleModel load_vehicle_model(const std::string& path) {

@@ -19,11 +19,14 @@
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
 #include "dronetwin/noise/random.hpp"
+#include "test_support.hpp"
 
 namespace dronetwin {
 namespace {
 
 namespace fs = std::filesystem;
+
+using test::error_of;
 
 fs::path temp_file(const std::string& name) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
@@ -36,17 +39,6 @@ std::string read_all(const fs::path& p) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InvalidArgument& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected InvalidArgument";
-  return {};
 }
 
 TEST(CsvLog, ColumnNamesOfAQuadrotorLog) {

@@ -7,7 +7,6 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -20,6 +19,7 @@
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/io/model_loader.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "test_support.hpp"
 
 namespace dronetwin {
 namespace {
@@ -31,19 +31,7 @@ const std::string kBadDir = kSourceDir + "/tests/data/bad_experiments";
 const std::string kExperimentDir = kSourceDir + "/config/experiments";
 const std::string kModel = kSourceDir + "/models/qdrone2.yaml";
 
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InvalidArgument& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "expected InvalidArgument, got another exception: " << e.what();
-    return {};
-  }
-  ADD_FAILURE() << "expected InvalidArgument, nothing was thrown";
-  return {};
-}
+using test::error_of;
 
 /// A scratch directory removed at the end of the test.
 class TempDir {
@@ -324,13 +312,7 @@ TEST(Experiment, ModelPathFallsBackToTheCurrentDirectory) {
 
 // ---- the malformed-file corpus ----------------------------------------------------------------
 
-struct BadCase {
-  const char* file;
-  /// Substrings the message must contain (the first names the field).
-  std::vector<std::string> expected;
-};
-
-void PrintTo(const BadCase& c, std::ostream* os) { *os << c.file; }
+using BadCase = test::BadFileCase;
 
 // One row per file of tests/data/bad_experiments (CorpusIsFullyCovered checks).
 const std::vector<BadCase> kBadCases = {
@@ -398,13 +380,7 @@ TEST_P(BadExperiment, IsRejectedNamingFileAndField) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Corpus, BadExperiment, ::testing::ValuesIn(kBadCases),
-                         [](const ::testing::TestParamInfo<BadCase>& p) {
-                           std::string name = p.param.file;
-                           name = name.substr(0, name.find('.'));
-                           for (char& ch : name)
-                             if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
-                           return name;
-                         });
+                         test::bad_file_case_name);
 
 TEST(BadExperimentCorpus, CorpusIsFullyCovered) {
   std::set<std::string> files;

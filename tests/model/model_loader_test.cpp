@@ -5,7 +5,6 @@
 
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -18,6 +17,7 @@
 #include <vector>
 
 #include "dronetwin/core/error.hpp"
+#include "test_support.hpp"
 
 namespace dronetwin {
 namespace {
@@ -29,31 +29,12 @@ const std::string kBadDir = kSourceDir + "/tests/data/bad";
 
 std::string model_path(const std::string& file) { return kSourceDir + "/models/" + file; }
 
-/// The message of the InvalidArgument thrown by `f`, or a failure if nothing (or something else)
-/// is thrown.
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InvalidArgument& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "expected InvalidArgument, got another exception: " << e.what();
-    return {};
-  }
-  ADD_FAILURE() << "expected InvalidArgument, nothing was thrown";
-  return {};
-}
+using test::error_of;
 
 // ---- the malformed-file corpus ----------------------------------------------------------------
 
-struct BadCase {
-  const char* file;
-  /// Substrings the error message must contain, besides the file name.
-  std::vector<std::string> expected;
-};
-
-void PrintTo(const BadCase& c, std::ostream* os) { *os << c.file; }
+/// `expected`: substrings the error message must contain, besides the file name.
+using BadCase = test::BadFileCase;
 
 // One row per file of tests/data/bad. A new file must get a row (CorpusIsFullyCovered checks).
 const std::vector<BadCase> kBadCases = {
@@ -117,12 +98,7 @@ TEST_P(BadModelFile, IsRejectedNamingFileAndField) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Corpus, BadModelFile, ::testing::ValuesIn(kBadCases),
-                         [](const ::testing::TestParamInfo<BadCase>& case_info) {
-                           std::string name = case_info.param.file;
-                           name = name.substr(0, name.find('.'));
-                           std::replace(name.begin(), name.end(), '-', '_');
-                           return name;
-                         });
+                         test::bad_file_case_name);
 
 TEST(BadModelCorpus, IsFullyCovered) {
   std::set<std::string> on_disk;

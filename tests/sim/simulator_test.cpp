@@ -154,15 +154,7 @@ TEST(Simulator, NoiseOffMeansMeasuredEqualsTrue) {
 
 // ---- bad input ------------------------------------------------------------------------------
 
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InvalidArgument& e) {
-    return e.what();
-  }
-  return "<no InvalidArgument thrown>";
-}
+using test::error_of;
 
 TEST(Simulator, RejectsNonFiniteAndMisSizedInputs) {
   Simulator sim = hovering(SimConfig{}, 1.0);
