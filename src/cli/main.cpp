@@ -1,6 +1,6 @@
 // The `dronetwin` command-line tool.
 //
-//   dronetwin run EXPERIMENT.yaml --out DIR [--seed N] [--duration S] [--quiet]
+//   dronetwin run EXPERIMENT.yaml --out DIR [--seed N] [--duration S] [--real-time] [--quiet]
 //   dronetwin info MODEL.yaml
 //   dronetwin --version
 //
@@ -18,6 +18,7 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <variant>
 #include <vector>
 
 #include <sys/wait.h>
@@ -68,6 +69,7 @@ struct RunOptions {
   std::string seed;
   double duration_s = 0.0;
   bool quiet = false;
+  bool real_time = false;
   bool seed_given = false;
   bool duration_given = false;
 };
@@ -92,6 +94,19 @@ void print_summary(const RunSummary& s) {
   std::cout << "  ground          " << (s.crashed ? "CRASHED" : "no crash") << ", touchdowns "
             << s.touchdowns << ", max touchdown speed " << fixed(s.max_touchdown_speed_m_s, 3)
             << " m/s\n";
+  if (s.closed_loop) {
+    const ClosedLoopSummary& c = *s.closed_loop;
+    std::cout << "  controller      " << c.controller_name << " (" << c.controller_path << "), "
+              << c.control_rate_hz << " Hz, " << c.allocation << " allocation"
+              << (c.real_time ? ", real time" : "") << "\n";
+    std::cout << "  reference       " << c.reference_type << ": " << c.reference << "\n";
+    std::cout << "  rmse            x " << fixed(c.rmse[0], 4) << " m, y " << fixed(c.rmse[1], 4)
+              << " m, z " << fixed(c.rmse[2], 4) << " m, yaw " << fixed(c.rmse[3], 4)
+              << " rad over [" << c.rmse_window_s[0] << ", " << c.rmse_window_s[1] << "] s ("
+              << c.rmse_samples << " steps)\n";
+    std::cout << "  saturation      " << c.saturated_updates << " of " << c.control_updates
+              << " control updates (" << fixed(100.0 * c.saturated_fraction, 2) << " %)\n";
+  }
   std::cout << "  wrote           " << s.log_path << " (" << s.log_rows << " rows), "
             << s.summary_path << "\n";
 }
@@ -111,6 +126,13 @@ int run_command(const RunOptions& o) {
     require(std::isfinite(o.duration_s) && o.duration_s > 0.0,
             "--duration: expected a number of seconds > 0, got ", o.duration_s);
     e.duration_s = o.duration_s;
+  }
+  if (o.real_time) {
+    auto* loop = std::get_if<ControllerLoopInput>(&e.input);
+    require(loop != nullptr,
+            "--real-time: only for closed-loop experiments (input type controller), not '",
+            input_type_name(e.input), "'");
+    loop->real_time = true;
   }
   const RunSummary s = run_experiment(e, o.out_dir);
   if (!o.quiet) print_summary(s);
@@ -208,6 +230,8 @@ int main(int argc, char** argv) {
       run_cmd->add_option("--seed", run.seed, "Override the experiment's seed (integer >= 0)");
   CLI::Option* duration =
       run_cmd->add_option("--duration", run.duration_s, "Override duration_s (seconds)");
+  run_cmd->add_flag("--real-time", run.real_time,
+                    "Pace a closed-loop run at real time (overrides the experiment's real_time)");
   run_cmd->add_flag("--quiet,-q", run.quiet, "Print nothing on success");
 
   std::string model_path;

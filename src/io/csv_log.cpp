@@ -43,6 +43,11 @@ std::vector<std::string> log_column_names(const LogLayout& layout) {
         for (const char* axis : {"_x", "_y", "_z"}) c.push_back(kind + term + axis);
     }
   }
+  if (layout.controller) {
+    for (const char* s : {"ref_x", "ref_y", "ref_z", "ref_yaw", "u_T", "u_tau_x", "u_tau_y",
+                          "u_tau_z", "saturated"})
+      c.emplace_back(s);
+  }
   return c;
 }
 

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/io/controller_config.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "yaml_strict.hpp"
 
@@ -35,29 +37,46 @@ using Names = std::vector<std::string_view>;
 
 // ---- key tables -------------------------------------------------------------------------------
 
-const Names kTopLevelKeys = {"name",       "description",   "model",        "seed",
-                             "duration_s", "physics_dt_s",  "integrator",   "motor_dynamics",
-                             "noise",      "wind_m_s",      "gravity_m_s2", "disturbances",
-                             "ground",     "initial_state", "log",          "input"};
+const Names kTopLevelKeys = {"name",         "description",   "model",        "seed",
+                             "duration_s",   "physics_dt_s",  "integrator",   "motor_dynamics",
+                             "noise",        "wind_m_s",      "gravity_m_s2", "disturbances",
+                             "ground",       "initial_state", "log",          "metrics",
+                             "input"};
 const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
 const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
 const Names kBlockKeys = {"a", "b"};
 const Names kDisturbanceKeys = {"rotor_drag",    "rolling_moment", "drag_moment",
                                 "ground_effect", "gyroscopic",     "body_drag"};
 const Names kGroundKeys = {"enabled", "crash_speed_m_s", "crash_tilt_rad"};
-const Names kInitialStateKeys = {"position_m", "velocity_m_s",           "quaternion_wxyz",
-                                 "euler_rad",  "angular_velocity_rad_s", "rotor_speeds_rad_s"};
+const Names kInitialStateKeys = {"position_m",         "velocity_m_s",           "quaternion_wxyz",
+                                 "euler_rad",          "angular_velocity_rad_s", "rotor_speeds_rad_s",
+                                 "on_reference"};
 const Names kLogKeys = {"every_n_steps", "wrench_breakdown", "measured"};
+const Names kMetricsKeys = {"window_s"};
 // In the order of the ExperimentInput alternatives (input_type_name() indexes it).
 const Names kInputTypes = {"constant_rotor_speeds", "piecewise_rotor_speeds",
-                           "constant_generalized_force", "hover"};
-static_assert(std::variant_size_v<ExperimentInput> == 4,
+                           "constant_generalized_force", "hover", "controller"};
+static_assert(std::variant_size_v<ExperimentInput> == 5,
               "a new input kind needs a name in kInputTypes and a branch in read_input(), "
               "check_against_model() and run_experiment's InputDriver");
 const Names kSegmentKeys = {"start_s", "rotor_speeds_rad_s"};
 const Names kIntegrators = {"rk4", "euler"};
 const Names kDrifts = {"per_sample", "continuous"};
 const Names kAllocations = {"exact", "thesis"};
+const Names kControllerInputKeys = {"type",       "controller",     "control_rate_hz",
+                                    "allocation", "real_time",      "reference"};
+const Names kReferenceTypes = {"setpoint", "thesis_pulse", "piecewise",
+                               "circle",   "figure_eight", "waypoints"};
+const Names kSetpointKeys = {"type", "position_m", "yaw_rad"};
+const Names kPiecewiseKeys = {"type", "segments"};
+const Names kPiecewiseSegmentKeys = {"start_s", "position_m", "yaw_rad"};
+const Names kCircleKeys = {"type", "center_m", "radius_m", "period_s", "yaw_rad"};
+const Names kFigureEightKeys = {"type", "center_m", "amplitude_x_m", "amplitude_y_m", "period_s"};
+const Names kWaypointsKeys = {"type", "points"};
+const Names kWaypointKeys = {"time_s", "position_m", "yaw_rad"};
+// Keys that on_reference: true replaces (it sets the whole initial state).
+const Names kOnReferenceExcludes = {"position_m", "velocity_m_s", "quaternion_wxyz", "euler_rad",
+                                    "angular_velocity_rad_s", "rotor_speeds_rad_s"};
 
 // ---- sections ---------------------------------------------------------------------------------
 
@@ -169,6 +188,18 @@ InitialStateSpec read_initial_state(const Reader& rd, const YAML::Node& node,
   if (m.has("rotor_speeds_rad_s"))
     s.rotor_speeds =
         read_rotor_speeds(rd, m.get("rotor_speeds_rad_s"), m.path("rotor_speeds_rad_s"));
+  if (m.has("on_reference")) {
+    s.on_reference = rd.boolean(m.get("on_reference"), m.path("on_reference"));
+    if (s.on_reference) {
+      for (std::string_view key : kOnReferenceExcludes) {
+        if (m.has(key))
+          rd.fail(m.get(key), m.path(key),
+                  "on_reference: true sets the whole initial state (position and velocity of the "
+                  "reference at t = 0, level at its yaw, hover rotor speeds); remove '" +
+                      std::string(key) + "' or set on_reference: false");
+      }
+    }
+  }
   return s;
 }
 
@@ -188,16 +219,204 @@ LogSettings read_log(const Reader& rd, const YAML::Node& node, const std::string
   return s;
 }
 
-ExperimentInput read_input(const Reader& rd, const YAML::Node& node, const std::string& path) {
-  const std::string expected = "a map with a 'type' (" + name_list(kInputTypes) + ")";
+/// The `type:` of a map that selects its kind by it (an input, a reference): its index in `types`.
+std::size_t read_type(const Reader& rd, const YAML::Node& node, const std::string& path,
+                      const Names& types, const std::string& what) {
+  const std::string expected = "a map with a 'type' (" + name_list(types) + ")";
   if (!node.IsMap()) rd.fail(node, path, "expected " + expected + ", got " + describe(node));
   YAML::Node type_node(YAML::NodeType::Undefined);
   for (const auto& kv : node)
     if (kv.first.IsScalar() && kv.first.Scalar() == "type") type_node = kv.second;
   if (!type_node.IsDefined())
-    rd.fail(node, path, "missing required key 'type' (" + name_list(kInputTypes) + ")");
-  const std::size_t type =
-      rd.choice(type_node, child_path(path, "type"), kInputTypes, "input type");
+    rd.fail(node, path, "missing required key 'type' (" + name_list(types) + ")");
+  return rd.choice(type_node, child_path(path, "type"), types, what);
+}
+
+double read_yaw(const Reader& rd, const Map& m) {
+  return m.has("yaw_rad") ? rd.number(m.get("yaw_rad"), m.path("yaw_rad")) : 0.0;
+}
+
+double read_nonnegative(const Reader& rd, const Map& m, std::string_view key, double fallback,
+                        const std::string& what) {
+  if (!m.has(key)) return fallback;
+  const YAML::Node n = m.get(key);
+  const double v = rd.number(n, m.path(key));
+  if (v < 0.0) rd.fail(n, m.path(key), "expected " + what + " >= 0, got " + n.Scalar());
+  return v;
+}
+
+/// One item of a reference's list of segments or waypoints.
+struct TimedPoint {
+  double time_s;
+  Vec3 position_m;
+  double yaw_rad;
+};
+
+/// A non-empty list at `path` of maps with a strictly increasing time `time_key` (the first >= 0,
+/// or == 0 when `first_at_zero`), a required position_m and an optional yaw_rad (default 0).
+std::vector<TimedPoint> read_timed_points(const Reader& rd, const YAML::Node& list,
+                                          const std::string& path, const Names& keys,
+                                          std::string_view time_key, bool first_at_zero) {
+  const std::string item = "a map {" + name_list(keys) + "}";
+  if (!list.IsSequence() || list.size() == 0)
+    rd.fail(list, path, "expected a non-empty list of " + item + ", got " + describe(list));
+  std::vector<TimedPoint> points;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const Map p = rd.map(list[i], item_path(path, i), keys, item);
+    const YAML::Node t_node = p.required(time_key);
+    const double t = rd.number(t_node, p.path(time_key));
+    if (i == 0 && first_at_zero && t != 0.0)
+      rd.fail(t_node, p.path(time_key),
+              "expected 0 (the first segment starts the run), got " + t_node.Scalar());
+    if (i == 0 && t < 0.0)
+      rd.fail(t_node, p.path(time_key), "expected a time >= 0 s, got " + t_node.Scalar());
+    if (i > 0 && !(t > points.back().time_s))
+      rd.fail(t_node, p.path(time_key),
+              "expected a time after " + format_number(points.back().time_s) + " s (the " +
+                  std::string(time_key) + " of " + item_path(path, i - 1) +
+                  "; times must strictly increase), got " + t_node.Scalar());
+    const Vec3 pos =
+        rd.fixed<3>(p.required("position_m"), p.path("position_m"), "x, y, z in m");
+    points.push_back({t, pos, read_yaw(rd, p)});
+  }
+  return points;
+}
+
+/// `reference:` of a controller input: a Reference (control/reference.hpp) and its type name.
+std::pair<std::shared_ptr<const Reference>, std::string> read_reference(const Reader& rd,
+                                                                        const YAML::Node& node,
+                                                                        const std::string& path) {
+  const std::size_t type = read_type(rd, node, path, kReferenceTypes, "reference type");
+  const std::string expected =
+      "a map with a 'type' (" + name_list(kReferenceTypes) + ") and its keys";
+  const std::string name(kReferenceTypes[type]);
+  const auto center = [&](const Map& m, const Vec3& fallback) -> Vec3 {
+    return m.has("center_m") ? rd.fixed<3>(m.get("center_m"), m.path("center_m"), "x, y, z in m")
+                             : fallback;
+  };
+  const auto period = [&](const Map& m, double fallback) {
+    return m.has("period_s") ? rd.positive(m.get("period_s"), m.path("period_s")) : fallback;
+  };
+  std::shared_ptr<const Reference> ref;
+  switch (type) {
+    case 0: {
+      const Map m = rd.map(node, path, kSetpointKeys, expected);
+      const Vec3 p = rd.fixed<3>(m.required("position_m"), m.path("position_m"), "x, y, z in m");
+      ref = std::make_shared<const SetpointReference>(p, read_yaw(rd, m));
+      break;
+    }
+    case 1:
+      rd.map(node, path, Names{"type"}, expected);
+      ref = std::make_shared<const PiecewiseConstantReference>(
+          PiecewiseConstantReference::thesis_pulse());
+      break;
+    case 2: {
+      const Map m = rd.map(node, path, kPiecewiseKeys, expected);
+      std::vector<PiecewiseConstantReference::Segment> segments;
+      for (const TimedPoint& p :
+           read_timed_points(rd, m.required("segments"), m.path("segments"),
+                             kPiecewiseSegmentKeys, "start_s", /*first_at_zero=*/true))
+        segments.push_back({p.time_s, p.position_m, p.yaw_rad});
+      ref = std::make_shared<const PiecewiseConstantReference>(std::move(segments));
+      break;
+    }
+    case 3: {
+      // Defaults: thesis Eq. 3.28 (r = 2 m, T = 7 s, centre (0, 0, 1), yaw 0).
+      const Map m = rd.map(node, path, kCircleKeys, expected);
+      ref = std::make_shared<const CircleReference>(
+          center(m, Vec3(0, 0, 1)), read_nonnegative(rd, m, "radius_m", 2.0, "a radius"),
+          period(m, 7.0), read_yaw(rd, m));
+      break;
+    }
+    case 4: {
+      // Defaults: thesis Eq. 3.25 (0.8 x 0.6 m, T = 60 s, centre (0, 0, 1.2)).
+      const Map m = rd.map(node, path, kFigureEightKeys, expected);
+      ref = std::make_shared<const FigureEightReference>(
+          center(m, Vec3(0, 0, 1.2)),
+          read_nonnegative(rd, m, "amplitude_x_m", 0.8, "an amplitude"),
+          read_nonnegative(rd, m, "amplitude_y_m", 0.6, "an amplitude"), period(m, 60.0));
+      break;
+    }
+    default: {
+      const Map m = rd.map(node, path, kWaypointsKeys, expected);
+      std::vector<WaypointReference::Waypoint> points;
+      for (const TimedPoint& p : read_timed_points(rd, m.required("points"), m.path("points"),
+                                                   kWaypointKeys, "time_s",
+                                                   /*first_at_zero=*/false))
+        points.push_back({p.time_s, p.position_m, p.yaw_rad});
+      ref = std::make_shared<const WaypointReference>(std::move(points));
+      break;
+    }
+  }
+  return {std::move(ref), name};
+}
+
+/// A file named in the experiment (model, controller): relative to the experiment's directory
+/// if it exists there, else relative to the current directory (or absolute). `what` names it in
+/// the error ("model file 'x.yaml' not found (looked for ...)").
+std::string resolve_file(const Reader& rd, const YAML::Node& node, const std::string& path,
+                         const std::string& given_text, const std::string& what) {
+  const fs::path given(given_text);
+  std::vector<fs::path> candidates;
+  if (given.is_absolute()) {
+    candidates.push_back(given);
+  } else {
+    candidates.push_back(fs::path(rd.source()).parent_path() / given);
+    candidates.push_back(given);
+  }
+  std::string tried;
+  for (const fs::path& c : candidates) {
+    std::error_code ec;
+    if (fs::is_regular_file(c, ec)) return c.lexically_normal().string();
+    tried += (tried.empty() ? "'" : " and '") + c.lexically_normal().string() + "'";
+  }
+  rd.fail(node, path, what + " file '" + given_text + "' not found (looked for " + tried + ")");
+}
+
+ControllerLoopInput read_controller_input(const Reader& rd, const Map& m) {
+  ControllerLoopInput in;
+  const YAML::Node c = m.required("controller");
+  in.controller_path =
+      resolve_file(rd, c, m.path("controller"), rd.string(c, m.path("controller")), "controller");
+  // Parse the controller file now, so that a bad one fails before anything runs.
+  try {
+    (void)load_controller_config(in.controller_path);
+  } catch (const InvalidArgument& e) {
+    rd.fail(c, m.path("controller"), std::string("bad controller file: ") + e.what());
+  }
+  if (m.has("control_rate_hz"))
+    in.control_rate_hz = rd.positive(m.get("control_rate_hz"), m.path("control_rate_hz"));
+  if (m.has("allocation")) {
+    in.allocation =
+        rd.choice(m.get("allocation"), m.path("allocation"), kAllocations, "allocation") == 0
+            ? AllocationMethod::kExact
+            : AllocationMethod::kThesis;
+  }
+  if (m.has("real_time")) in.real_time = rd.boolean(m.get("real_time"), m.path("real_time"));
+  auto [ref, type] = read_reference(rd, m.required("reference"), m.path("reference"));
+  in.reference = std::move(ref);
+  in.reference_type = std::move(type);
+  return in;
+}
+
+MetricsSettings read_metrics(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  const Map m = rd.map(node, path, kMetricsKeys, "a map of metrics settings");
+  MetricsSettings s;
+  if (m.has("window_s")) {
+    const YAML::Node w = m.get("window_s");
+    const Eigen::Vector2d v = rd.fixed<2>(w, m.path("window_s"), "t0, t1 in s");
+    if (!(v[0] >= 0.0 && v[1] > v[0]))
+      rd.fail(w, m.path("window_s"),
+              "expected 0 <= t0 < t1, got [" + format_number(v[0]) + ", " + format_number(v[1]) +
+                  "]");
+    s.window_s = std::array<double, 2>{v[0], v[1]};
+  }
+  return s;
+}
+
+ExperimentInput read_input(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  const std::string expected = "a map with a 'type' (" + name_list(kInputTypes) + ")";
+  const std::size_t type = read_type(rd, node, path, kInputTypes, "input type");
 
   switch (type) {
     case 0: {
@@ -246,30 +465,12 @@ ExperimentInput read_input(const Reader& rd, const YAML::Node& node, const std::
       }
       return in;
     }
-    default:
+    case 3:
       rd.map(node, path, Names{"type"}, expected);
       return HoverInput{};
+    default:
+      return read_controller_input(rd, rd.map(node, path, kControllerInputKeys, expected));
   }
-}
-
-/// The model file: relative to the experiment's directory if it exists there, else relative to
-/// the current directory (or absolute).
-std::string resolve_model_path(const Reader& rd, const YAML::Node& node, const std::string& model) {
-  const fs::path given(model);
-  std::vector<fs::path> candidates;
-  if (given.is_absolute()) {
-    candidates.push_back(given);
-  } else {
-    candidates.push_back(fs::path(rd.source()).parent_path() / given);
-    candidates.push_back(given);
-  }
-  std::string tried;
-  for (const fs::path& c : candidates) {
-    std::error_code ec;
-    if (fs::is_regular_file(c, ec)) return c.lexically_normal().string();
-    tried += (tried.empty() ? "'" : " and '") + c.lexically_normal().string() + "'";
-  }
-  rd.fail(node, "model", "model file '" + model + "' not found (looked for " + tried + ")");
 }
 
 void check_experiment(const Experiment& e, const std::string& source) {
@@ -299,6 +500,20 @@ void check_experiment(const Experiment& e, const std::string& source) {
            "the OU process is unstable: the per-step decay factors 1 - s a = " + format_number(e1) +
                " and 1 - s (a + " + format_number(n) + " b) = " + format_number(e2) +
                " must lie in (-1, 1) (s = " + format_number(s) + ", from the drift setting)");
+  }
+  if (const auto* loop = std::get_if<ControllerLoopInput>(&e.input)) {
+    // As ClosedLoop checks it (thesis Eq. 3.11: f_physics / f_control steps per control).
+    const double physics_hz = 1.0 / e.physics_dt_s;
+    const double ratio = physics_hz / loop->control_rate_hz;
+    const double n = std::round(ratio);
+    if (!(std::isfinite(loop->control_rate_hz) && loop->control_rate_hz > 0.0 && n >= 1.0 &&
+          std::abs(ratio - n) < 1e-9 * ratio))
+      fail("input.control_rate_hz",
+           "expected a rate that divides the physics rate " + format_number(physics_hz) +
+               " Hz (1 / physics_dt_s) into a whole number of steps (thesis Eq. 3.11), got " +
+               format_number(loop->control_rate_hz) + " Hz (" + format_number(ratio) +
+               " steps per control)");
+    if (loop->reference == nullptr) fail("input.reference", "missing (null reference)");
   }
   // The remaining run settings with the simulator's own check.
   (void)e.sim_config();
@@ -385,7 +600,8 @@ Experiment parse_experiment(const std::string& yaml_text, const std::string& sou
   e.source = source_name;
   e.name = rd.string(top.get("name"), "name");
   if (top.has("description")) e.description = rd.string(top.get("description"), "description");
-  e.model_path = resolve_model_path(rd, top.get("model"), rd.string(top.get("model"), "model"));
+  e.model_path =
+      resolve_file(rd, top.get("model"), "model", rd.string(top.get("model"), "model"), "model");
   if (top.has("seed")) {
     e.seed = rd.integer<std::uint64_t>(top.get("seed"), "seed",
                                        "an integer in [0, 18446744073709551615]");
@@ -411,7 +627,32 @@ Experiment parse_experiment(const std::string& yaml_text, const std::string& sou
   if (top.has("initial_state"))
     e.initial_state = read_initial_state(rd, top.get("initial_state"), "initial_state");
   if (top.has("log")) e.log = read_log(rd, top.get("log"), "log");
+  if (top.has("metrics")) e.metrics = read_metrics(rd, top.get("metrics"), "metrics");
   e.input = read_input(rd, top.get("input"), "input");
+  const auto* loop = std::get_if<ControllerLoopInput>(&e.input);
+  if (top.has("metrics") && loop == nullptr)
+    rd.fail(top.get("metrics"), "metrics",
+            "only for input type 'controller' (it sets where the tracking RMSE is taken), not '" +
+                std::string(input_type_name(e.input)) + "'");
+  if (e.initial_state.on_reference) {
+    const YAML::Node initial = top.get("initial_state");
+    const YAML::Node on_ref = initial["on_reference"];  // const operator[]: no insertion
+    if (loop == nullptr)
+      rd.fail(on_ref, "initial_state.on_reference",
+              "only for input type 'controller' (it starts on the controller's reference), not '" +
+                  std::string(input_type_name(e.input)) + "'");
+    // At the reference at t = 0: its position and velocity, level at its yaw, rotors at hover.
+    const ReferencePoint r0 = loop->reference->at(0.0);
+    e.initial_state.position_m = r0.position_m;
+    e.initial_state.velocity_m_s = r0.velocity_m_s;
+    e.initial_state.quaternion_wxyz = math::from_euler(0.0, 0.0, r0.yaw_rad);
+    e.initial_state.angular_velocity_rad_s = Vec3::Zero();
+    e.initial_state.rotor_speeds = RotorSpeedSetting::hover();
+    if (e.ground.enabled && r0.position_m.z() < 0.0)
+      rd.fail(on_ref, "initial_state.on_reference",
+              "the reference starts below the ground (z = " + format_number(r0.position_m.z()) +
+                  " m at t = 0); set ground.enabled: false to start there");
+  }
   check_experiment(e, source_name);
   return e;
 }
@@ -449,6 +690,8 @@ void check_against_model(const Experiment& e, const VehicleModel& model) {
                  },
                  [&](const ConstantGeneralizedForceInput&) {},
                  [&](const HoverInput&) {},
+                 // The controller is built for the model by run_experiment (load_controller).
+                 [&](const ControllerLoopInput&) {},
              },
              e.input);
 }

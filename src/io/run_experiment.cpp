@@ -1,4 +1,5 @@
-// Experiment runner: model + Simulator + input schedule + CSV log + summary.json.
+// Experiment runner: model + Simulator + input schedule (or controller + ClosedLoop) + CSV log +
+// summary.json.
 #include "dronetwin/io/run_experiment.hpp"
 
 #include <algorithm>
@@ -7,16 +8,22 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <memory>
+#include <numbers>
+#include <optional>
 #include <system_error>
 #include <utility>
 #include <variant>
 #include <vector>
 
+#include "dronetwin/control/closed_loop.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/dynamics/ground.hpp"
+#include "dronetwin/io/controller_config.hpp"
 #include "dronetwin/io/csv_log.hpp"
 #include "dronetwin/io/model_loader.hpp"
+#include "dronetwin/math/quaternion.hpp"
 
 #ifndef DRONETWIN_VERSION
 #define DRONETWIN_VERSION "unknown"
@@ -60,6 +67,8 @@ class InputDriver {
                    [&](const HoverInput&) {
                      schedule_.push_back({0, model.hover_speeds_rad_s(g)});
                    },
+                   // Flown by ControllerDriver; nothing to schedule.
+                   [&](const ControllerLoopInput&) {},
                },
                e.input);
   }
@@ -88,8 +97,102 @@ class InputDriver {
   bool use_force_ = false;
 };
 
+/// A controller input in flight: the controller built from its file, the ClosedLoop that flies
+/// it, and the tracking-error sums. Not movable (the loop refers to the controller).
+class ControllerDriver {
+ public:
+  ControllerDriver(const Experiment& e, const ControllerLoopInput& in,
+                   const std::shared_ptr<const VehicleModel>& model, Simulator& sim)
+      : input_(in) {
+    try {
+      controller_ = load_controller(in.controller_path, model, in.control_rate_hz);
+    } catch (const InvalidArgument& err) {
+      throw InvalidArgument(e.source + ": input.controller: " + err.what());
+    }
+    if (in.allocation) controller_->set_allocation(*in.allocation);
+    controller_->reset();
+    loop_.emplace(sim, *controller_, *in.reference, in.control_rate_hz);
+    loop_->set_real_time(in.real_time);
+    // Sample k (t = k dt) is in the window when first_ <= k <= last_ (1e-9-step tolerance, as
+    // segment_start_step()).
+    if (e.metrics.window_s) {
+      const auto [t0, t1] = *e.metrics.window_s;
+      first_ = segment_start_step(t0, e.physics_dt_s);
+      const double last = std::floor(t1 / e.physics_dt_s + 1e-9);
+      last_ = last < 9e18 ? static_cast<std::int64_t>(last) : last_;
+      window_ = {t0, t1};
+    }
+  }
+  ControllerDriver(const ControllerDriver&) = delete;
+  ControllerDriver& operator=(const ControllerDriver&) = delete;
+
+  void update() { loop_->update(); }
+  StepResult step() { return loop_->step(); }
+
+  /// Adds the tracking error at the simulator's current instant when it is in the window.
+  void observe(const Simulator& sim) {
+    const std::int64_t k = sim.step_count();
+    if (k < first_ || k > last_) return;
+    const StateVector& x = sim.state();
+    const ReferencePoint r = input_.reference->at(sim.time_s());
+    const Vec3 e_p = r.position_m - x.segment<3>(state_index::kPosition);
+    const double yaw = math::to_euler(Vec4(x.segment<4>(state_index::kQuaternion)))[2];
+    const double e_yaw = std::remainder(r.yaw_rad - yaw, 2.0 * std::numbers::pi);
+    sum_sq_.head<3>() += e_p.cwiseAbs2();
+    sum_sq_[3] += e_yaw * e_yaw;
+    ++samples_;
+  }
+
+  /// ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y, u_tau_z, saturated at `out`.
+  std::size_t fill(const Simulator& sim, double* out) const {
+    const ReferencePoint r = input_.reference->at(sim.time_s());
+    std::size_t k = 0;
+    for (int i = 0; i < 3; ++i) out[k++] = r.position_m[i];
+    out[k++] = r.yaw_rad;
+    for (int i = 0; i < 4; ++i) out[k++] = loop_->last_command()[i];
+    out[k++] = saturated() ? 1.0 : 0.0;
+    return k;
+  }
+
+  ClosedLoopSummary summary(double end_s) const {
+    ClosedLoopSummary c;
+    c.controller_name = std::string(controller_->name());
+    c.controller_path = input_.controller_path;
+    c.allocation = std::string(allocation_name(controller_->allocation()));
+    c.reference_type = input_.reference_type;
+    c.reference = input_.reference->describe();
+    c.control_rate_hz = input_.control_rate_hz;
+    c.real_time = input_.real_time;
+    if (samples_ > 0) c.rmse = (sum_sq_ / static_cast<double>(samples_)).cwiseSqrt();
+    c.rmse_window_s = {window_[0], std::min(window_[1], end_s)};
+    c.rmse_samples = samples_;
+    c.control_updates = loop_->control_updates();
+    c.saturated_updates = loop_->saturated_updates();
+    c.saturated_fraction = c.control_updates > 0 ? static_cast<double>(c.saturated_updates) /
+                                                       static_cast<double>(c.control_updates)
+                                                 : 0.0;
+    return c;
+  }
+
+ private:
+  bool saturated() const {
+    return controller_->level() == ControlLevel::kGeneralizedForce &&
+           loop_->controller().last_allocation().saturated;
+  }
+
+  ControllerLoopInput input_;
+  std::unique_ptr<ControllerBase> controller_;
+  std::optional<ClosedLoop> loop_;
+  std::int64_t first_ = 0;
+  std::int64_t last_ = std::numeric_limits<std::int64_t>::max();
+  std::array<double, 2> window_{0.0, std::numeric_limits<double>::infinity()};
+  Vec4 sum_sq_ = Vec4::Zero();
+  std::int64_t samples_ = 0;
+};
+
 /// Fills one log row from the simulator (layout of log_column_names()).
-void fill_row(const Simulator& sim, const LogSettings& log, std::vector<double>& row) {
+void fill_row(const Simulator& sim, const LogSettings& log, const ControllerDriver* controller,
+              std::vector<double>& row) {
   std::size_t k = 0;
   row[k++] = sim.time_s();
   const StateVector& x = sim.state();
@@ -110,6 +213,7 @@ void fill_row(const Simulator& sim, const LogSettings& log, std::vector<double>&
       for (int i = 0; i < 3; ++i) row[k++] = w.moment_B[i];
     }
   }
+  if (controller != nullptr) k += controller->fill(sim, row.data() + k);
 }
 
 // ---- JSON -------------------------------------------------------------------------------------
@@ -222,8 +326,29 @@ std::string summary_to_json(const RunSummary& s) {
       .num("max_tilt_rad", s.max_tilt_rad)
       .boolean("crashed", s.crashed)
       .integer("touchdowns", s.touchdowns)
-      .num("max_touchdown_speed_m_s", s.max_touchdown_speed_m_s)
-      .integer("log_rows", s.log_rows)
+      .num("max_touchdown_speed_m_s", s.max_touchdown_speed_m_s);
+  if (s.closed_loop) {
+    const ClosedLoopSummary& c = *s.closed_loop;
+    JsonObject controller(2);
+    controller.str("name", c.controller_name)
+        .str("path", c.controller_path)
+        .str("allocation", c.allocation);
+    JsonObject rmse(2);
+    rmse.num("x", c.rmse[0]).num("y", c.rmse[1]).num("z", c.rmse[2]).num("yaw", c.rmse[3]);
+    j.raw("controller", controller.done())
+        .str("reference_type", c.reference_type)
+        .str("reference", c.reference)
+        .num("control_rate_hz", c.control_rate_hz)
+        .boolean("real_time", c.real_time)
+        .raw("rmse", rmse.done())
+        .raw("rmse_window_s", "[" + json_number(c.rmse_window_s[0]) + ", " +
+                                  json_number(c.rmse_window_s[1]) + "]")
+        .integer("rmse_samples", c.rmse_samples)
+        .integer("control_updates", c.control_updates)
+        .integer("saturated_updates", c.saturated_updates)
+        .num("saturated_fraction", c.saturated_fraction);
+  }
+  j.integer("log_rows", s.log_rows)
       .str("log_path", s.log_path)
       .num("wall_clock_s", s.wall_clock_s)
       .num("real_time_factor", s.real_time_factor);
@@ -251,6 +376,11 @@ RunSummary run_experiment(const Experiment& e, std::shared_ptr<const VehicleMode
     throw InvalidArgument(e.source + ": initial_state: " + err.what());
   }
   InputDriver input(e, *model);
+  // Built before any file is touched: a bad controller file throws here.
+  std::optional<ControllerDriver> controller;
+  if (const auto* in = std::get_if<ControllerLoopInput>(&e.input))
+    controller.emplace(e, *in, model, sim);
+  const ControllerDriver* const logged_controller = controller ? &*controller : nullptr;
 
   // Only now, with every input checked, touch the file system.
   std::error_code ec;
@@ -274,7 +404,8 @@ RunSummary run_experiment(const Experiment& e, std::shared_ptr<const VehicleMode
   s.log_path = log_path.string();
   s.summary_path = summary_path.string();
 
-  const LogLayout layout{model->num_rotors(), e.log.measured, e.log.wrench_breakdown};
+  const LogLayout layout{model->num_rotors(), e.log.measured, e.log.wrench_breakdown,
+                         controller.has_value()};
   CsvLogWriter log(log_path.string(), log_column_names(layout));
   std::vector<double> row(log.num_columns());
 
@@ -289,24 +420,47 @@ RunSummary run_experiment(const Experiment& e, std::shared_ptr<const VehicleMode
   s.min_z_m = s.max_z_m = sim.state()[state_index::kPosition + 2];
   observe(sim);
 
-  const auto start = std::chrono::steady_clock::now();
-  input.apply(sim);
-  fill_row(sim, e.log, row);
-  log.write_row(row);
-  bool last_logged = true;
-  for (std::int64_t k = 0; k < s.steps_requested; ++k) {
-    if (!sim.step().ok()) break;
-    // Command first, then log: a row at time t shows the reference in effect from t on.
-    input.apply(sim);
-    observe(sim);
-    last_logged = sim.step_count() % e.log.every_n_steps == 0;
-    if (last_logged) {
-      fill_row(sim, e.log, row);
-      log.write_row(row);
+  // Open loop: the input schedule sets the references, Simulator::step() steps. Closed loop:
+  // ClosedLoop::update() runs the controller when a control instant is due, ClosedLoop::step()
+  // steps (update() again, a no-op by then, and real-time pacing).
+  const auto apply = [&] {
+    if (controller) {
+      controller->update();
+      controller->observe(sim);
+    } else {
+      input.apply(sim);
     }
+  };
+  const auto step = [&] { return controller ? controller->step() : sim.step(); };
+
+  // A controller that fails (non-finite output) ends the run like a non-finite state would.
+  std::string controller_failure;
+  const auto start = std::chrono::steady_clock::now();
+  bool last_logged = false;
+  try {
+    apply();
+    fill_row(sim, e.log, logged_controller, row);
+    log.write_row(row);
+    last_logged = true;
+    for (std::int64_t k = 0; k < s.steps_requested; ++k) {
+      if (!step().ok()) break;
+      last_logged = false;
+      // Command first, then log: a row at time t shows the reference in effect from t on.
+      apply();
+      observe(sim);
+      last_logged = sim.step_count() % e.log.every_n_steps == 0;
+      if (last_logged) {
+        fill_row(sim, e.log, logged_controller, row);
+        log.write_row(row);
+      }
+    }
+  } catch (const SimulationError& err) {
+    if (!controller) throw;
+    controller_failure = err.what();
   }
-  if (sim.status() != StepStatus::kOk && !last_logged) {
-    fill_row(sim, e.log, row);  // the last good state, for diagnosis
+  const bool failed = sim.status() != StepStatus::kOk || !controller_failure.empty();
+  if (failed && !last_logged) {
+    fill_row(sim, e.log, logged_controller, row);  // the last good state, for diagnosis
     log.write_row(row);
   }
   log.close();
@@ -317,6 +471,11 @@ RunSummary run_experiment(const Experiment& e, std::shared_ptr<const VehicleMode
   s.duration_s = sim.time_s();
   s.status = sim.status();
   s.failure_message = sim.failure_message();
+  if (!controller_failure.empty() && s.ok()) {
+    s.status = StepStatus::kNonFinite;
+    s.failure_message = controller_failure;
+  }
+  if (controller) s.closed_loop = controller->summary(sim.time_s());
   s.final_time_s = sim.time_s();
   s.final_state = sim.state();
   s.final_rotor_speeds_rad_s = sim.rotor_speeds_rad_s();

@@ -1,6 +1,7 @@
 // End-to-end tests of the `dronetwin` command-line tool (src/cli/main.cpp): runs the built binary
 // through std::system on the shipped experiments and checks exit codes, the log against analytic
-// free fall, byte-for-byte reproducibility, seeds, bad input and the take-off/landing demo.
+// free fall, byte-for-byte reproducibility, seeds, bad input, the take-off/landing demo, and the
+// closed-loop experiments (PID pulse, SE(3) circle, --real-time).
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -253,6 +254,66 @@ TEST_F(Cli, OverridesAndUsage) {
   r = run("info \"" + kExperiments + "freefall.yaml\"");  // not a model
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("unknown key"), std::string::npos) << r.err;
+}
+
+// ---- closed loop ------------------------------------------------------------------------------
+
+/// The number after "key": inside the summary's "rmse" object.
+double rmse_of(const std::string& summary, const std::string& axis) {
+  const auto pos = summary.find("\"rmse\": {");
+  if (pos == std::string::npos) return std::nan("");
+  return json_number(summary.substr(pos), axis);
+}
+
+// The 'Done when' of the control-library issue: both closed-loop experiments run to the end.
+TEST_F(Cli, PidPulseNoiseOffFliesThePulse) {
+  const CliResult r = run_experiment(kExperiments + "pid_pulse_noise_off.yaml", "pid");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("pid_pulse_noise_off: ok"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("  rmse            x "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("cascaded_pid"), std::string::npos) << r.out;
+  const std::string summary = read_all(out("pid") / "summary.json");
+  EXPECT_NE(summary.find("\"status\": \"ok\""), std::string::npos);
+  EXPECT_NE(summary.find("\"crashed\": false"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"input_type\": \"controller\""), std::string::npos);
+  EXPECT_EQ(json_number(summary, "steps"), 60000.0);
+  EXPECT_EQ(json_number(summary, "rmse_samples"), 60001.0);
+  // The pulse is flown: every axis tracked to within the size of its steps (0.75 m, 1.5 m).
+  EXPECT_LT(rmse_of(summary, "x"), 0.5);
+  EXPECT_LT(rmse_of(summary, "y"), 0.01);
+  EXPECT_LT(rmse_of(summary, "z"), 0.2);
+  EXPECT_LT(rmse_of(summary, "yaw"), 0.01);
+  const LogTable log = read_csv_log((out("pid") / "log.csv").string());
+  const std::size_t last = log.rows() - 1;
+  EXPECT_NEAR(log.at(last, log.column("z")), 0.75, 0.02);
+  EXPECT_NEAR(log.at(last, log.column("x")), 0.0, 0.02);
+}
+
+TEST_F(Cli, Se3CircleNoiseOffFliesTheCircle) {
+  const CliResult r = run_experiment(kExperiments + "se3_circle_noise_off.yaml", "se3");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("se3_circle_noise_off: ok"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("  rmse            x "), std::string::npos) << r.out;
+  const std::string summary = read_all(out("se3") / "summary.json");
+  EXPECT_NE(summary.find("\"crashed\": false"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"reference_type\": \"circle\""), std::string::npos);
+  EXPECT_EQ(json_number(summary, "steps"), 35000.0);
+  for (const char* axis : {"x", "y", "z"}) EXPECT_LT(rmse_of(summary, axis), 0.1) << axis;
+  EXPECT_LT(rmse_of(summary, "yaw"), 0.05);
+}
+
+TEST_F(Cli, RealTimeFlag) {
+  CliResult r = run_experiment(kExperiments + "hover_pid.yaml", "rt", "--duration 0.1 --real-time");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("real time"), std::string::npos) << r.out;
+  const std::string summary = read_all(out("rt") / "summary.json");
+  EXPECT_NE(summary.find("\"real_time\": true"), std::string::npos) << summary;
+  EXPECT_LE(json_number(summary, "real_time_factor"), 1.01);
+
+  r = run_experiment(kExperiments + "freefall.yaml", "rt_open", "--real-time");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--real-time: only for closed-loop experiments"), std::string::npos)
+      << r.err;
 }
 
 }  // namespace

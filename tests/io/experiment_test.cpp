@@ -1,7 +1,8 @@
 // Tests of experiment files (include/dronetwin/io/experiment.hpp): the shipped experiments and a
-// file using every key parse to the right values, defaults are what the docs say, model paths
-// resolve as documented, and every file of tests/data/bad_experiments is rejected with a message
-// that starts with the file and names the field.
+// file using every key parse to the right values, defaults are what the docs say, model and
+// controller paths resolve as documented, the closed-loop input parses every reference type, and
+// every file of tests/data/bad_experiments is rejected with a message that starts with the file
+// and names the field.
 #include "dronetwin/io/experiment.hpp"
 
 #include <gtest/gtest.h>
@@ -9,6 +10,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <numbers>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -30,6 +32,7 @@ const std::string kSourceDir = DRONETWIN_SOURCE_DIR;
 const std::string kBadDir = kSourceDir + "/tests/data/bad_experiments";
 const std::string kExperimentDir = kSourceDir + "/config/experiments";
 const std::string kModel = kSourceDir + "/models/qdrone2.yaml";
+const std::string kPid = kSourceDir + "/config/controllers/pid.yaml";
 
 using test::error_of;
 
@@ -222,6 +225,9 @@ TEST(Experiment, ShippedExperimentsLoadAndMatchTheirModels) {
   }
   EXPECT_TRUE(names.count("hover_open_loop") && names.count("step_open_loop") &&
               names.count("freefall"));
+  for (const char* closed_loop : {"pid_pulse", "pid_pulse_noise_off", "pid_pulse_thesis_gains",
+                                  "se3_circle", "se3_circle_noise_off", "hover_pid"})
+    EXPECT_TRUE(names.count(closed_loop)) << closed_loop;
 }
 
 TEST(Experiment, HoverOpenLoopIsTheReadmeDemo) {
@@ -286,6 +292,304 @@ TEST(Experiment, ValidateCatchesOverriddenFields) {
   EXPECT_NE(m.find("o.yaml: duration_s: expected a number > 0, got -2"), std::string::npos) << m;
 }
 
+// ---- closed loop: type controller -------------------------------------------------------------
+
+/// A controller input around `reference` (a YAML flow map) and `extra` input keys.
+std::string controller_input(const std::string& reference, const std::string& extra = "") {
+  return "input:\n  type: controller\n  controller: " + kPid + "\n" + extra +
+         "  reference: " + reference + "\n";
+}
+
+/// The ControllerLoopInput of a minimal experiment with `reference`.
+ControllerLoopInput parse_loop(const std::string& reference, const std::string& extra = "",
+                               const std::string& top = "") {
+  const Experiment e = parse_experiment(minimal(top, controller_input(reference, extra)), "c.yaml");
+  const auto* in = std::get_if<ControllerLoopInput>(&e.input);
+  if (in == nullptr) {
+    ADD_FAILURE() << "not a controller input";
+    return {};
+  }
+  return *in;
+}
+
+/// Both references agree (position, velocity, acceleration, yaw, yaw rate) at a few instants.
+void expect_same_reference(const Reference& a, const Reference& b) {
+  for (double t : {0.0, 0.3, 1.7, 4.0, 22.0, 31.0, 36.5, 47.0, 55.0, 100.0}) {
+    const ReferencePoint pa = a.at(t), pb = b.at(t);
+    EXPECT_EQ(pa.position_m, pb.position_m) << "t = " << t;
+    EXPECT_EQ(pa.velocity_m_s, pb.velocity_m_s) << "t = " << t;
+    EXPECT_EQ(pa.acceleration_m_s2, pb.acceleration_m_s2) << "t = " << t;
+    EXPECT_EQ(pa.yaw_rad, pb.yaw_rad) << "t = " << t;
+    EXPECT_EQ(pa.yaw_rate_rad_s, pb.yaw_rate_rad_s) << "t = " << t;
+  }
+  EXPECT_EQ(a.describe(), b.describe());
+}
+
+TEST(ExperimentController, MinimalInputGetsTheDocumentedDefaults) {
+  const Experiment e = parse_experiment(
+      minimal("", controller_input("{type: setpoint, position_m: [0, 0, 1]}")), "c.yaml");
+  const auto* in = std::get_if<ControllerLoopInput>(&e.input);
+  ASSERT_NE(in, nullptr);
+  EXPECT_EQ(input_type_name(e.input), "controller");
+  EXPECT_EQ(fs::path(in->controller_path), fs::path(kPid).lexically_normal());
+  EXPECT_EQ(in->control_rate_hz, 1000.0);
+  EXPECT_FALSE(in->allocation.has_value());  // the controller file's own choice
+  EXPECT_FALSE(in->real_time);
+  EXPECT_EQ(in->reference_type, "setpoint");
+  ASSERT_NE(in->reference, nullptr);
+  expect_same_reference(*in->reference, SetpointReference(Vec3(0, 0, 1), 0.0));
+  EXPECT_FALSE(e.metrics.window_s.has_value());
+  EXPECT_FALSE(e.initial_state.on_reference);
+}
+
+TEST(ExperimentController, EveryInputKeyParsesToItsValue) {
+  const ControllerLoopInput in =
+      parse_loop("{type: setpoint, position_m: [1, -2, 3], yaw_rad: 0.25}",
+                 "  control_rate_hz: 250\n  allocation: thesis\n  real_time: true\n");
+  EXPECT_EQ(in.control_rate_hz, 250.0);
+  ASSERT_TRUE(in.allocation.has_value());
+  EXPECT_EQ(*in.allocation, AllocationMethod::kThesis);
+  EXPECT_TRUE(in.real_time);
+  expect_same_reference(*in.reference, SetpointReference(Vec3(1, -2, 3), 0.25));
+  EXPECT_EQ(*parse_loop("{type: thesis_pulse}", "  allocation: exact\n").allocation,
+            AllocationMethod::kExact);
+}
+
+TEST(ExperimentController, EveryReferenceType) {
+  ControllerLoopInput in = parse_loop("{type: thesis_pulse}");
+  EXPECT_EQ(in.reference_type, "thesis_pulse");
+  expect_same_reference(*in.reference, PiecewiseConstantReference::thesis_pulse());
+  // Eq. 3.14 spot checks: z = 0.75 m from 22 s, x = 0.75 m in [35, 45) s.
+  EXPECT_EQ(in.reference->at(21.9).position_m, Vec3(0, 0, 0));
+  EXPECT_EQ(in.reference->at(40.0).position_m, Vec3(0.75, 0, 0.75));
+
+  in = parse_loop(
+      "{type: piecewise, segments: [{start_s: 0, position_m: [0, 0, 1]},"
+      " {start_s: 2.5, position_m: [1, 0, 1], yaw_rad: 0.5}, {start_s: 4, position_m: [1, 1, 2]}]}");
+  EXPECT_EQ(in.reference_type, "piecewise");
+  expect_same_reference(*in.reference,
+                        PiecewiseConstantReference({{0.0, Vec3(0, 0, 1), 0.0},
+                                                    {2.5, Vec3(1, 0, 1), 0.5},
+                                                    {4.0, Vec3(1, 1, 2), 0.0}}));
+
+  in = parse_loop("{type: circle}");  // defaults: Eq. 3.28
+  EXPECT_EQ(in.reference_type, "circle");
+  expect_same_reference(*in.reference, CircleReference(Vec3(0, 0, 1), 2.0, 7.0, 0.0));
+  EXPECT_EQ(in.reference->at(0.0).position_m, Vec3(2, 0, 1));
+  in = parse_loop("{type: circle, center_m: [1, 2, 3], radius_m: 0.5, period_s: 4, yaw_rad: -1}");
+  expect_same_reference(*in.reference, CircleReference(Vec3(1, 2, 3), 0.5, 4.0, -1.0));
+
+  in = parse_loop("{type: figure_eight}");  // defaults: Eq. 3.25
+  EXPECT_EQ(in.reference_type, "figure_eight");
+  expect_same_reference(*in.reference, FigureEightReference(Vec3(0, 0, 1.2), 0.8, 0.6, 60.0));
+  in = parse_loop(
+      "{type: figure_eight, center_m: [0, 1, 2], amplitude_x_m: 1.5, amplitude_y_m: 0.25, "
+      "period_s: 20}");
+  expect_same_reference(*in.reference, FigureEightReference(Vec3(0, 1, 2), 1.5, 0.25, 20.0));
+
+  in = parse_loop(
+      "{type: waypoints, points: [{time_s: 0, position_m: [0, 0, 1]},"
+      " {time_s: 3, position_m: [2, 0, 1], yaw_rad: 1.0}, {time_s: 5.5, position_m: [2, 2, 1.5]}]}");
+  EXPECT_EQ(in.reference_type, "waypoints");
+  expect_same_reference(*in.reference, WaypointReference({{0.0, Vec3(0, 0, 1), 0.0},
+                                                          {3.0, Vec3(2, 0, 1), 1.0},
+                                                          {5.5, Vec3(2, 2, 1.5), 0.0}}));
+}
+
+TEST(ExperimentController, ControllerPathIsRelativeToTheExperimentFileFirst) {
+  TempDir dir;
+  std::ifstream in(kPid);
+  std::stringstream text;
+  text << in.rdbuf();
+  dir.write("controllers/mine.yaml", text.str());
+  const std::string path =
+      dir.write("exp/x.yaml", "name: x\nmodel: " + kModel +
+                                  "\nduration_s: 1\ninput:\n  type: controller\n"
+                                  "  controller: ../controllers/mine.yaml\n"
+                                  "  reference: {type: thesis_pulse}\n");
+  const Experiment e = load_experiment(path);
+  EXPECT_EQ(fs::path(std::get<ControllerLoopInput>(e.input).controller_path),
+            (dir.path() / "controllers/mine.yaml").lexically_normal());
+
+  // A bad controller file is reported when the experiment is loaded, through the experiment.
+  dir.write("controllers/broken.yaml", "type: pid\ngains: {outer_p: [1, 2]}\n");
+  const std::string broken =
+      dir.write("exp/y.yaml", "name: y\nmodel: " + kModel +
+                                  "\nduration_s: 1\ninput:\n  type: controller\n"
+                                  "  controller: ../controllers/broken.yaml\n"
+                                  "  reference: {type: thesis_pulse}\n");
+  const std::string m = error_of([&] { (void)load_experiment(broken); });
+  EXPECT_EQ(m.rfind(broken + ": input.controller: bad controller file: ", 0), 0u) << m;
+  EXPECT_NE(m.find("broken.yaml"), std::string::npos) << m;
+}
+
+TEST(ExperimentController, OnReferenceStartsOnTheReferenceAtHover) {
+  const Experiment e = parse_experiment(
+      minimal("initial_state: {on_reference: true}\n",
+              controller_input("{type: circle, yaw_rad: 0.5}")),
+      "on.yaml");
+  EXPECT_TRUE(e.initial_state.on_reference);
+  // Eq. 3.28 at t = 0: p = (2, 0, 1), v = (0, 2 pi r / T, 0).
+  EXPECT_EQ(e.initial_state.position_m, Vec3(2, 0, 1));
+  EXPECT_NEAR(e.initial_state.velocity_m_s.x(), 0.0, 1e-15);
+  EXPECT_NEAR(e.initial_state.velocity_m_s.y(), 4.0 * std::numbers::pi / 7.0, 1e-15);
+  EXPECT_EQ(e.initial_state.velocity_m_s.z(), 0.0);
+  EXPECT_EQ(e.initial_state.quaternion_wxyz, math::from_euler(0.0, 0.0, 0.5));
+  EXPECT_EQ(e.initial_state.angular_velocity_rad_s, Vec3::Zero());
+  EXPECT_EQ(e.initial_state.rotor_speeds.kind, RotorSpeedSetting::Kind::kHover);
+
+  const Experiment off = parse_experiment(
+      minimal("initial_state: {on_reference: false, position_m: [0, 0, 0.5]}\n",
+              controller_input("{type: circle}")),
+      "off.yaml");
+  EXPECT_FALSE(off.initial_state.on_reference);
+  EXPECT_EQ(off.initial_state.position_m, Vec3(0, 0, 0.5));
+}
+
+TEST(ExperimentController, MetricsWindow) {
+  const Experiment e =
+      parse_experiment(minimal("metrics: {window_s: [5, 30.5]}\n", controller_input("{type: circle}")),
+                       "m.yaml");
+  ASSERT_TRUE(e.metrics.window_s.has_value());
+  EXPECT_EQ((*e.metrics.window_s)[0], 5.0);
+  EXPECT_EQ((*e.metrics.window_s)[1], 30.5);
+  EXPECT_FALSE(
+      parse_experiment(minimal("metrics: {}\n", controller_input("{type: circle}")), "m.yaml")
+          .metrics.window_s.has_value());
+}
+
+TEST(ExperimentController, ShippedClosedLoopExperiments) {
+  const Experiment pulse = load_experiment(kExperimentDir + "/pid_pulse.yaml");
+  const auto& p = std::get<ControllerLoopInput>(pulse.input);
+  EXPECT_EQ(fs::path(p.controller_path).filename(), "pid.yaml");
+  EXPECT_EQ(p.control_rate_hz, 1000.0);
+  EXPECT_EQ(p.reference_type, "thesis_pulse");
+  EXPECT_EQ(pulse.duration_s, 60.0);
+  EXPECT_EQ(pulse.seed, 1u);
+  EXPECT_TRUE(pulse.noise.enabled);
+  EXPECT_EQ(pulse.initial_state.position_m, Vec3::Zero());
+  EXPECT_EQ(pulse.initial_state.rotor_speeds.kind, RotorSpeedSetting::Kind::kStopped);
+  EXPECT_FALSE(load_experiment(kExperimentDir + "/pid_pulse_noise_off.yaml").noise.enabled);
+  const Experiment printed = load_experiment(kExperimentDir + "/pid_pulse_thesis_gains.yaml");
+  EXPECT_EQ(fs::path(std::get<ControllerLoopInput>(printed.input).controller_path).filename(),
+            "pid_thesis.yaml");
+
+  const Experiment circle = load_experiment(kExperimentDir + "/se3_circle.yaml");
+  const auto& c = std::get<ControllerLoopInput>(circle.input);
+  EXPECT_EQ(fs::path(c.controller_path).filename(), "se3.yaml");
+  EXPECT_EQ(c.reference_type, "circle");
+  expect_same_reference(*c.reference, CircleReference());
+  EXPECT_EQ(circle.duration_s, 35.0);
+  EXPECT_TRUE(circle.noise.enabled);
+  EXPECT_TRUE(circle.initial_state.on_reference);
+  EXPECT_EQ(circle.initial_state.position_m, Vec3(2, 0, 1));
+  EXPECT_FALSE(load_experiment(kExperimentDir + "/se3_circle_noise_off.yaml").noise.enabled);
+
+  const Experiment hover = load_experiment(kExperimentDir + "/hover_pid.yaml");
+  expect_same_reference(*std::get<ControllerLoopInput>(hover.input).reference,
+                        SetpointReference(Vec3(0, 0, 1)));
+  EXPECT_EQ(hover.initial_state.position_m, Vec3::Zero());
+  EXPECT_EQ(hover.duration_s, 10.0);
+  EXPECT_TRUE(hover.noise.enabled);
+}
+
+TEST(ExperimentController, ValidateRechecksTheControlRate) {
+  Experiment e = parse_experiment(minimal("", controller_input("{type: circle}",
+                                                               "  control_rate_hz: 500\n")),
+                                  "r.yaml");
+  EXPECT_NO_THROW(validate(e));
+  e.physics_dt_s = 0.003;  // 333.3 Hz physics: 500 Hz control is faster than physics
+  const std::string m = error_of([&] { validate(e); });
+  EXPECT_NE(m.find("r.yaml: input.control_rate_hz: expected a rate that divides the physics rate"),
+            std::string::npos)
+      << m;
+}
+
+TEST(ExperimentController, InlineDefectsNameTheirFields) {
+  const auto msg = [](const std::string& reference, const std::string& extra = "",
+                      const std::string& top = "") {
+    return error_of(
+        [&] { (void)parse_experiment(minimal(top, controller_input(reference, extra)), "i.yaml"); });
+  };
+  const auto has = [](const std::string& m, const std::string& s) {
+    EXPECT_NE(m.find(s), std::string::npos) << "missing '" << s << "' in: " << m;
+  };
+  has(error_of([] {
+        (void)parse_experiment(
+            minimal("", "input: {type: controller, controller: " + kPid + "}\n"), "i.yaml");
+      }),
+      "i.yaml: input: missing required key 'reference'");
+  has(error_of([] {
+        (void)parse_experiment(minimal("", "input: {type: controller, reference: {type: circle}}\n"),
+                               "i.yaml");
+      }),
+      "input: missing required key 'controller'");
+  has(msg("{type: circle}", "  controler_rate_hz: 100\n"),
+      "input: unknown key 'controler_rate_hz'; did you mean 'control_rate_hz'?");
+  has(msg("{type: circle}", "  control_rate_hz: 0\n"),
+      "input.control_rate_hz: expected a number > 0, got 0");
+  has(msg("{type: circle}", "  allocation: fastest\n"), "input.allocation: unknown allocation");
+  has(msg("{type: circle}", "  real_time: yes\n"), "input.real_time: expected true or false");
+  has(msg("circle"), "input.reference: expected a map with a 'type'");
+  has(msg("{radius_m: 2}"), "input.reference: missing required key 'type'");
+  has(msg("{type: setpoint}"), "input.reference: missing required key 'position_m'");
+  has(msg("{type: setpoint, position_m: [0, 1]}"),
+      "input.reference.position_m: expected 3 numbers (x, y, z in m), got 2");
+  has(msg("{type: setpoint, position_m: [0, 0, 1], yaw: 1}"),
+      "input.reference: unknown key 'yaw' (valid keys: type, position_m, yaw_rad)");
+  has(msg("{type: thesis_pulse, period_s: 60}"), "input.reference: unknown key 'period_s'");
+  has(msg("{type: circle, radius_m: -2}"),
+      "input.reference.radius_m: expected a radius >= 0, got -2");
+  has(msg("{type: circle, center_m: [0, 0]}"), "input.reference.center_m: expected 3 numbers");
+  has(msg("{type: circle, period_s: \"7\"}"),
+      "input.reference.period_s: expected a number, got the string");
+  has(msg("{type: figure_eight, amplitude_x_m: -1}"),
+      "input.reference.amplitude_x_m: expected an amplitude >= 0");
+  has(msg("{type: figure_eight, period_s: 0}"), "input.reference.period_s: expected a number > 0");
+  has(msg("{type: piecewise, segments: []}"), "input.reference.segments: expected a non-empty list");
+  has(msg("{type: piecewise, segments: [{start_s: 1, position_m: [0, 0, 1]}]}"),
+      "input.reference.segments[0].start_s: expected 0");
+  has(msg("{type: piecewise, segments: [{start_s: 0, position_m: [0, 0, 1]}, "
+          "{start_s: 0, position_m: [0, 0, 2]}]}"),
+      "input.reference.segments[1].start_s: expected a time after 0 s");
+  has(msg("{type: piecewise, segments: [{start_s: 0}]}"),
+      "input.reference.segments[0]: missing required key 'position_m'");
+  has(msg("{type: waypoints, points: [{time_s: -1, position_m: [0, 0, 1]}]}"),
+      "input.reference.points[0].time_s: expected a time >= 0 s, got -1");
+  has(msg("{type: waypoints, points: [{time_s: 0, position_m: [0, 0, 1]}, "
+          "{time_s: 2, position_m: [0, 0, 1]}, {time_s: 1, position_m: [0, 0, 1]}]}"),
+      "input.reference.points[2].time_s: expected a time after 2 s");
+  has(msg("{type: waypoints, points: [{t: 0, position_m: [0, 0, 1]}]}"),
+      "input.reference.points[0]: unknown key 't'");
+
+  // metrics
+  has(msg("{type: circle}", "", "metrics: {window_s: [3, 1]}\n"),
+      "metrics.window_s: expected 0 <= t0 < t1, got [3, 1]");
+  has(msg("{type: circle}", "", "metrics: {window_s: [-1, 1]}\n"), "metrics.window_s: expected 0");
+  has(msg("{type: circle}", "", "metrics: {window_s: [1]}\n"),
+      "metrics.window_s: expected 2 numbers (t0, t1 in s), got 1");
+  has(msg("{type: circle}", "", "metrics: {window: [0, 1]}\n"),
+      "metrics: unknown key 'window'; did you mean 'window_s'?");
+  has(error_of([] {
+        (void)parse_experiment(minimal("metrics: {window_s: [0, 1]}\n"), "i.yaml");
+      }),
+      "i.yaml: metrics: only for input type 'controller'");
+
+  // on_reference
+  has(msg("{type: circle}", "", "initial_state: {on_reference: true, position_m: [0, 0, 1]}\n"),
+      "initial_state.position_m: on_reference: true sets the whole initial state");
+  has(msg("{type: circle}", "", "initial_state: {on_reference: true, rotor_speeds_rad_s: hover}\n"),
+      "initial_state.rotor_speeds_rad_s: on_reference: true sets the whole initial state");
+  has(msg("{type: circle}", "", "initial_state: {on_reference: 1}\n"),
+      "initial_state.on_reference: expected true or false");
+  has(msg("{type: circle, center_m: [0, 0, -1]}", "", "initial_state: {on_reference: true}\n"),
+      "initial_state.on_reference: the reference starts below the ground");
+  has(error_of([] {
+        (void)parse_experiment(minimal("initial_state: {on_reference: true}\n"), "i.yaml");
+      }),
+      "i.yaml: initial_state.on_reference: only for input type 'controller'");
+}
+
 // ---- model paths ------------------------------------------------------------------------------
 
 TEST(Experiment, ModelPathIsRelativeToTheExperimentFileFirst) {
@@ -318,6 +622,11 @@ using BadCase = test::BadFileCase;
 const std::vector<BadCase> kBadCases = {
     {"bad_quaternion_length.yaml",
      {"initial_state.quaternion_wxyz: expected 4 numbers (w, x, y, z), got 3", "line 7"}},
+    {"circle_negative_period.yaml",
+     {"input.reference.period_s: expected a number > 0, got -7.0", "line 11"}},
+    {"control_rate_not_dividing.yaml",
+     {"input.control_rate_hz: expected a rate that divides the physics rate 1000 Hz",
+      "got 300 Hz"}},
     {"disturbance_key_typo.yaml",
      {"disturbances: unknown key 'groundeffect'", "did you mean 'ground_effect'?"}},
     {"dt_too_large.yaml", {"physics_dt_s: expected a step in (0, 0.1] s, got 0.5"}},
@@ -329,6 +638,8 @@ const std::vector<BadCase> kBadCases = {
      {"initial_state.rotor_speeds_rad_s: expected 4 numbers (rotors of qdrone2), got 5"}},
     {"input_missing_type.yaml", {"input: missing required key 'type'"}},
     {"missing_input.yaml", {"missing required key 'input'"}},
+    {"missing_controller_file.yaml",
+     {"input.controller: controller file 'no_such_controller.yaml' not found", "line 7"}},
     {"missing_model_file.yaml", {"model: model file 'no_such_model.yaml' not found"}},
     {"nan_wind.yaml", {"wind_m_s[1]: expected a finite number, got .nan", "line 5"}},
     {"negative_duration.yaml", {"duration_s: expected a number > 0, got -1"}},
@@ -347,6 +658,8 @@ const std::vector<BadCase> kBadCases = {
     {"unknown_input_type.yaml",
      {"input.type: unknown input type 'constant_rotor_speed'",
       "did you mean 'constant_rotor_speeds'?"}},
+    {"unknown_reference_type.yaml",
+     {"input.reference.type: unknown reference type 'cirle'", "did you mean 'circle'?"}},
     {"unknown_integrator.yaml",
      {"integrator: unknown integrator 'rk5'", "did you mean 'rk4'?", "line 5"}},
     {"unknown_key_typo.yaml", {"unknown key 'duratoin_s'", "did you mean 'duration_s'?", "line 4"}},
@@ -389,7 +702,7 @@ TEST(BadExperimentCorpus, CorpusIsFullyCovered) {
   std::set<std::string> covered;
   for (const BadCase& c : kBadCases) covered.insert(c.file);
   EXPECT_EQ(files, covered);
-  EXPECT_EQ(files.size(), 29u);
+  EXPECT_EQ(files.size(), 33u);
   EXPECT_GE(files.size(), 10u);
 }
 

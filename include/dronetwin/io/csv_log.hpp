@@ -14,7 +14,10 @@
 // world position/velocity, q_WB, body rates), omega_0..omega_{N-1} (achieved rotor speeds, rad/s),
 // omega_ref_0..omega_ref_{N-1} (references), [meas_x .. meas_wz (measured state)], in_contact,
 // crashed, [F_<term>_x, F_<term>_y, F_<term>_z, M_<term>_x, M_<term>_y, M_<term>_z for each term,
-// body frame]. Bracketed groups are optional.
+// body frame], [ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y, u_tau_z, saturated (closed
+// loop: the reference at t, the generalized force of the rotor command in effect from t on, and
+// whether its allocation saturated)]. Bracketed groups are optional; the closed-loop group comes
+// last, so an open-loop log's columns are a prefix of the closed-loop log's with the same settings.
 //
 // Trap: the writer buffers; rows reach the file on flush(), close() or destruction. Errors on
 // close() throw; the destructor cannot, so close() explicitly when the file matters.
@@ -32,6 +35,8 @@ struct LogLayout {
   int num_rotors = 4;
   bool measured = true;
   bool wrench_breakdown = false;
+  /// Closed-loop columns ref_x .. saturated (the input is a controller).
+  bool controller = false;
 };
 
 /// The column names of a run log, in order (see the file comment).

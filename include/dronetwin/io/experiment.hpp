@@ -14,16 +14,24 @@
 // Trap: checks that need the model (a rotor-speed vector must have one entry per rotor) cannot
 // run while parsing; call check_against_model() (run_experiment() does) before using the inputs.
 //
-// Adding an input kind (a controller, issue 3) means adding one struct to ExperimentInput and one
-// branch to the parser, the model check and the runner; nothing else changes shape.
+// Closed loop: `input: {type: controller, controller: ../controllers/pid.yaml, reference: ...}`
+// becomes a ControllerLoopInput holding the resolved controller file and the parsed Reference;
+// run_experiment() builds the controller with load_controller() and flies it with a ClosedLoop.
+//
+// Adding an input kind means adding one struct to ExperimentInput and one branch to the parser,
+// the model check and the runner; nothing else changes shape.
 
+#include <array>
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <variant>
 #include <vector>
 
+#include "dronetwin/control/reference.hpp"
 #include "dronetwin/core/types.hpp"
 #include "dronetwin/dynamics/ground.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
@@ -80,9 +88,30 @@ struct ConstantGeneralizedForceInput {
 /// `type: hover`: rotor speed references = the model's hover speeds (for |gravity_m_s2|).
 struct HoverInput {};
 
-/// What drives the rotors. New kinds (a closed-loop controller) are added as alternatives.
+/// `type: controller`: a controller (a file of config/controllers, docs/controllers.md) tracking
+/// a reference in closed loop (control/closed_loop.hpp). The controller runs every
+/// f_physics / control_rate_hz physics steps on the measured state; its rotor speed command is
+/// held in between.
+struct ControllerLoopInput {
+  /// Controller file, resolved like Experiment::model_path (the experiment's directory first).
+  std::string controller_path;
+  /// Must divide the physics rate 1 / physics_dt_s into a whole number of steps (Eq. 3.11).
+  double control_rate_hz = 1000.0;
+  /// Overrides the controller file's `allocation` (ControllerBase::set_allocation); empty: the
+  /// file's choice.
+  std::optional<AllocationMethod> allocation;
+  /// Pace the run at real time (ClosedLoop::set_real_time); `dronetwin run --real-time` sets it.
+  bool real_time = false;
+  /// `reference:` in the file (never null after parsing).
+  std::shared_ptr<const Reference> reference;
+  /// Its `type:` name (setpoint, thesis_pulse, piecewise, circle, figure_eight, waypoints).
+  std::string reference_type;
+};
+
+/// What drives the rotors: open-loop schedules or a closed-loop controller.
 using ExperimentInput = std::variant<ConstantRotorSpeedsInput, PiecewiseRotorSpeedsInput,
-                                     ConstantGeneralizedForceInput, HoverInput>;
+                                     ConstantGeneralizedForceInput, HoverInput,
+                                     ControllerLoopInput>;
 
 /// The `type:` name of an input ("constant_rotor_speeds", ...).
 std::string_view input_type_name(const ExperimentInput& input);
@@ -97,9 +126,19 @@ struct InitialStateSpec {
   Vec4 quaternion_wxyz = Vec4(1.0, 0.0, 0.0, 0.0);
   Vec3 angular_velocity_rad_s = Vec3::Zero();
   RotorSpeedSetting rotor_speeds;
+  /// `on_reference: true` (controller inputs only): the parser has set position and velocity to
+  /// the reference at t = 0, a level attitude at the reference yaw and hover rotor speeds. Kept
+  /// as a record; the fields above already hold the values.
+  bool on_reference = false;
 
   /// The 13-element state [p, v, q, w].
   StateVector state() const;
+};
+
+/// `metrics:` (controller inputs only): where the tracking RMSE is taken.
+struct MetricsSettings {
+  /// [t0, t1] in s, 0 <= t0 < t1; empty: the whole run. Clipped to the time the run reaches.
+  std::optional<std::array<double, 2>> window_s;
 };
 
 struct LogSettings {
@@ -132,6 +171,7 @@ struct Experiment {
   GroundConfig ground{};
   InitialStateSpec initial_state{};
   LogSettings log{};
+  MetricsSettings metrics{};
   ExperimentInput input = HoverInput{};
 
   /// Run settings for the Simulator, validated (InvalidArgument naming the field otherwise).
@@ -157,7 +197,8 @@ Experiment parse_experiment(const std::string& yaml_text, const std::string& sou
 void check_against_model(const Experiment& experiment, const VehicleModel& model);
 
 /// Re-checks the fields a caller may override after loading (seed is free; duration_s > 0 and
-/// finite, and the run settings); used by the CLI after --duration.
+/// finite, the run settings, and a controller input's rate against physics_dt_s); used by the CLI
+/// after --duration.
 void validate(const Experiment& experiment);
 
 /// First physics step k (time k dt) at which a segment starting at `start_s` is in effect.

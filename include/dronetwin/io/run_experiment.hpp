@@ -10,12 +10,23 @@
 // logs its last good state. Statistics (min/max z, max speed, max tilt) are taken over every
 // physics step, not only the logged ones. Fields of summary.json: docs/experiment-format.md.
 //
+// Closed loop (input type controller): the controller is built from its file with
+// load_controller() and flown by a ClosedLoop. Before every step (and before the t = 0 row) the
+// runner calls ClosedLoop::update(), which runs the controller at its control instants, then logs
+// the row, then steps with ClosedLoop::step() (which paces at real time when asked). The log gets
+// ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y, u_tau_z, saturated; the summary the
+// tracking RMSE over every physics step in the metrics window (ClosedLoopSummary).
+//
 // Trap: a diverged or non-finite run is not an exception. It returns a summary whose status says
-// so (and still writes both files); bad input (a malformed experiment, a missing model, an
-// unwritable out_dir) throws InvalidArgument before or while the files are created.
+// so (and still writes both files); so does a controller that returns non-finite output (status
+// non_finite, its message in failure_message). Bad input (a malformed experiment, a missing model
+// or controller file, an unwritable out_dir) throws InvalidArgument before the files are created.
 
+#include <array>
 #include <cstdint>
+#include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -28,6 +39,30 @@ namespace dronetwin {
 
 /// The dronetwin version this library was built as (the CMake project version).
 std::string_view version();
+
+/// What a closed-loop run adds to its summary.
+struct ClosedLoopSummary {
+  std::string controller_name;  ///< ControllerBase::name(), e.g. "cascaded_pid"
+  std::string controller_path;
+  std::string allocation;       ///< the allocation the controller flew with (exact, thesis)
+  std::string reference_type;   ///< setpoint, thesis_pulse, circle, ...
+  std::string reference;        ///< Reference::describe()
+  double control_rate_hz = 0.0;
+  bool real_time = false;
+  /// Root-mean-square tracking error [x, y, z, yaw] (m, m, m, rad) of the TRUE state against the
+  /// reference at the same instant, over every physics step k (t = k dt, t = 0 included) in the
+  /// window; the yaw is atan2-based from q_WB and its error is wrapped into [-pi, pi]. NaN when
+  /// the window holds no step.
+  Vec4 rmse = Vec4::Constant(std::numeric_limits<double>::quiet_NaN());
+  /// The window actually used: the requested one (default [0, end]) clipped to the time reached.
+  std::array<double, 2> rmse_window_s{0.0, 0.0};
+  std::int64_t rmse_samples = 0;
+  std::int64_t control_updates = 0;
+  /// Controller runs whose allocation saturated (ClosedLoop::saturated_updates()), and their
+  /// share of control_updates (0 when there were none).
+  std::int64_t saturated_updates = 0;
+  double saturated_fraction = 0.0;
+};
 
 struct RunSummary {
   std::string experiment_name;
@@ -58,6 +93,9 @@ struct RunSummary {
   bool crashed = false;
   int touchdowns = 0;
   double max_touchdown_speed_m_s = 0.0;
+
+  /// Set when the input is a controller.
+  std::optional<ClosedLoopSummary> closed_loop;
 
   std::int64_t log_rows = 0;
   double wall_clock_s = 0.0;

@@ -81,23 +81,31 @@ class OrnsteinUhlenbeck {
   void step(Random& rng) {
     std::array<double, kStateSize> xi;
     for (double& v : xi) v = rng.normal();
-    for (int k = 0; k < 4; ++k) {
-      const int n = kOuBlockSize[k], o = kOuBlockOffset[k];
-      const BlockCoefficients th = params_.theta[k], sg = params_.sigma[k];
-      double sum_y = 0.0, sum_xi = 0.0;
-      for (int j = 0; j < n; ++j) {
-        sum_y += y_[o + j];
-        sum_xi += xi[static_cast<std::size_t>(o + j)];
-      }
-      for (int j = 0; j < n; ++j) {
-        const double theta_y = th.a * y_[o + j] + th.b * sum_y;
-        const double sigma_xi = sg.a * xi[static_cast<std::size_t>(o + j)] + sg.b * sum_xi;
-        y_[o + j] += -drift_scale_ * theta_y + sqrt_dt_ * sigma_xi;
-      }
-    }
+    // Block sizes are compile-time constants so each block's loops unroll.
+    update_block<3>(0, xi);
+    update_block<3>(1, xi);
+    update_block<4>(2, xi);
+    update_block<3>(3, xi);
   }
 
  private:
+  template <int N>
+  void update_block(int k, const std::array<double, kStateSize>& xi) {
+    const int o = kOuBlockOffset[static_cast<std::size_t>(k)];
+    const BlockCoefficients th = params_.theta[static_cast<std::size_t>(k)];
+    const BlockCoefficients sg = params_.sigma[static_cast<std::size_t>(k)];
+    double sum_y = 0.0, sum_xi = 0.0;
+    for (int j = 0; j < N; ++j) {
+      sum_y += y_[o + j];
+      sum_xi += xi[static_cast<std::size_t>(o + j)];
+    }
+    for (int j = 0; j < N; ++j) {
+      const double theta_y = th.a * y_[o + j] + th.b * sum_y;
+      const double sigma_xi = sg.a * xi[static_cast<std::size_t>(o + j)] + sg.b * sum_xi;
+      y_[o + j] += -drift_scale_ * theta_y + sqrt_dt_ * sigma_xi;
+    }
+  }
+
   OuParameters params_{};
   double sqrt_dt_ = 0.0;
   double drift_scale_ = 1.0;

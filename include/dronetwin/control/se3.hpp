@@ -1,0 +1,83 @@
+#pragma once
+// Se3Controller: geometric tracking control on SE(3) (thesis Sec. 3.6.3.1, Eq. 3.26-3.29, after
+// Lee, Leok and McClamroch), with the modifications it needs to fly as switchable options
+// (all off = the controller as printed).
+//
+// Position (world frame):
+//   e_p = p_des - p,  e_v = v_des - v
+//   F = K_p e_p + K_d e_v + m a_des [+ m g e3]      (m g e3 is missing in Eq. 3.27-3.28, notes #35;
+//                                                    added when gravity_compensation is on)
+//   f = F . R e3                                     (collective thrust, Eq. 3.27)
+// Desired attitude (Eq. 3.28):
+//   b3d = F / |F|,  b1d = [cos psi_ref, sin psi_ref, 0],  b2d = b3d x b1d / |b3d x b1d|
+//   R_des = [b2d x b3d, b2d, b3d]
+// Attitude (body frame, w_des = 0 and w_dot_des = 0 as in Eq. 3.28):
+//   e_R = 1/2 vee(R_des^T R - R^T R_des),  e_w = w - R^T R_des w_des = w
+//   M = -K_R e_R - K_w e_w + w x J w
+// R comes from the normalised measured quaternion (notes #30); J is the vehicle model's inertia.
+//
+//   Se3Options options;                          // as printed
+//   options.gravity_compensation = true;         // notes #35
+//   options.max_tilt_rad = 0.6;
+//   Se3Controller se3(model, Se3Gains::thesis(), options);
+//   const CircleReference circle;                // Eq. 3.28; must outlive the loop
+//   ClosedLoop loop(sim, se3, circle, 1000.0);
+//
+// Trap: without gravity_compensation (as printed) the vehicle hovers where K_p e_p,z = m g, i.e.
+// m g / K_p,z = 0.45 m below the reference. |F| -> 0 (for instance commanding free fall) leaves
+// b3d undefined; the controller then keeps b3d = e3 instead of producing NaN.
+
+#include <limits>
+#include <memory>
+#include <string_view>
+
+#include "dronetwin/control/controller_base.hpp"
+
+namespace dronetwin {
+
+struct Se3Gains {
+  Vec3 position_p = Vec3::Zero();  ///< K_P,outer, N/m
+  Vec3 position_d = Vec3::Zero();  ///< K_D,outer, N s/m
+  Vec3 attitude_p = Vec3::Zero();  ///< K_R = K_P,inner, N m (per unit of e_R)
+  Vec3 attitude_d = Vec3::Zero();  ///< K_w = K_D,inner, N m s/rad
+  double mass_kg = 1.504;          ///< m in m a_des and m g e3
+  double gravity_m_s2 = 9.81;      ///< g in m g e3
+
+  /// Thesis Eq. 3.29, m = 1.504 kg.
+  static Se3Gains thesis();
+};
+
+/// The modifications that make the printed controller fly. Default-constructed = as printed.
+struct Se3Options {
+  /// Add m g e3 to the desired force (notes #35). As printed: off.
+  bool gravity_compensation = false;
+  /// Largest angle between the desired thrust direction b3d and +z, rad. The horizontal part of
+  /// F is shortened (its vertical part kept) to stay inside the cone. Infinity: no limit.
+  double max_tilt_rad = std::numeric_limits<double>::infinity();
+  /// Clamp the collective thrust f = F . R e3 at >= 0 (as printed it may go negative when the
+  /// body points away from F; rotors cannot push).
+  bool nonnegative_thrust = false;
+};
+
+class Se3Controller final : public ControllerBase {
+ public:
+  /// Throws InvalidArgument for negative or non-finite gains, non-positive mass or gravity, or a
+  /// tilt limit outside (0, pi/2) (infinity allowed: no limit).
+  Se3Controller(std::shared_ptr<const VehicleModel> model, const Se3Gains& gains,
+                const Se3Options& options, AllocationMethod allocation = AllocationMethod::kExact);
+
+  std::string_view name() const override { return "se3_geometric"; }
+  std::unique_ptr<ControllerBase> clone() const override;
+
+  const Se3Gains& gains() const { return gains_; }
+  const Se3Options& options() const { return options_; }
+
+ protected:
+  GeneralizedForce do_calculate_u(const ControlInput& in) override;
+
+ private:
+  Se3Gains gains_;
+  Se3Options options_;
+};
+
+}  // namespace dronetwin

@@ -1,0 +1,100 @@
+#include "dronetwin/control/closed_loop.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <thread>
+
+#include "dronetwin/core/error.hpp"
+
+namespace dronetwin {
+
+ClosedLoop::ClosedLoop(Simulator& sim, ControllerBase& controller, const Reference& reference,
+                       double control_rate_hz)
+    : sim_(sim), controller_(controller), reference_(reference) {
+  require(std::isfinite(control_rate_hz) && control_rate_hz > 0.0,
+          "control_rate_hz: expected > 0, got ", control_rate_hz);
+  const double physics_hz = 1.0 / sim.config().dt_s;
+  const double ratio = physics_hz / control_rate_hz;
+  steps_per_control_ = static_cast<int>(std::lround(ratio));
+  require(steps_per_control_ >= 1 && std::abs(ratio - steps_per_control_) < 1e-9 * ratio,
+          "control_rate_hz: ", control_rate_hz,
+          " Hz must divide the physics rate (", physics_hz,
+          " Hz) into a whole number of steps (thesis Eq. 3.11: f_control <= f_physics)");
+  require(controller.model().num_rotors() == sim.model().num_rotors(), "controller '",
+          controller.name(), "' was built for ", controller.model().num_rotors(),
+          " rotors but the simulator's model has ", sim.model().num_rotors());
+  w_cmd_ = sim.rotor_speed_reference_rad_s();
+}
+
+void ClosedLoop::control() {
+  input_.time_s = sim_.time_s();
+  input_.state = sim_.measured_state();
+  input_.state_derivative = sim_.measured_state_derivative();
+  input_.reference = reference_.at(input_.time_s);
+  w_cmd_ = controller_.calculate_actuator_cmd(input_);
+  if (controller_.level() == ControlLevel::kGeneralizedForce) {
+    u_ = controller_.last_allocation().achieved;
+    if (controller_.last_allocation().saturated) ++saturated_updates_;
+  } else {
+    // What the commanded speeds produce (the motors clamp them to the rotor limits).
+    const VehicleModel& m = sim_.model();
+    RotorVector thrusts(m.num_rotors());
+    for (int i = 0; i < m.num_rotors(); ++i) {
+      const RotorParams& r = m.rotor(i);
+      thrusts[i] = r.thrust(std::clamp(w_cmd_[i], r.min_speed_rad_s, r.max_speed_rad_s));
+    }
+    u_ = m.allocation_matrix() * thrusts;
+  }
+  sim_.set_rotor_speed_reference(w_cmd_);
+  ++updates_;
+}
+
+bool ClosedLoop::update() {
+  const std::int64_t k = sim_.step_count();
+  if (k == last_update_step_ || k % steps_per_control_ != 0) return false;
+  control();
+  // Only after a successful run: a controller that threw is called again on the next update().
+  last_update_step_ = k;
+  return true;
+}
+
+StepResult ClosedLoop::step() {
+  if (!started_) {
+    started_ = true;
+    wall_start_ = std::chrono::steady_clock::now();
+    sim_start_s_ = sim_.time_s();
+  }
+  update();
+  const StepResult r = sim_.step();
+  if (real_time_ && r.ok()) {
+    const auto due = wall_start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                       std::chrono::duration<double>(sim_.time_s() - sim_start_s_));
+    std::this_thread::sleep_until(due);
+  }
+  return r;
+}
+
+StepResult ClosedLoop::run(double duration_s) {
+  require(std::isfinite(duration_s) && duration_s >= 0.0, "duration_s: expected >= 0, got ",
+          duration_s);
+  const auto n = static_cast<std::int64_t>(std::llround(duration_s / sim_.config().dt_s));
+  StepResult total;
+  for (std::int64_t k = 0; k < n; ++k) {
+    const StepResult r = step();
+    if (!r.ok()) {
+      total.status = r.status;
+      return total;
+    }
+    ++total.steps_taken;
+  }
+  return total;
+}
+
+double ClosedLoop::achieved_real_time_factor() const {
+  if (!started_) return 0.0;
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start_).count();
+  return wall > 0.0 ? (sim_.time_s() - sim_start_s_) / wall : 0.0;
+}
+
+}  // namespace dronetwin
