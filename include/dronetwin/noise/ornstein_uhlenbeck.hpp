@@ -80,7 +80,10 @@ class OrnsteinUhlenbeck {
   /// Advances one step: draws 13 standard normals from `rng`.
   void step(Random& rng) {
     std::array<double, kStateSize> xi;
-    for (double& v : xi) v = rng.normal();
+    // Draw from a local copy so the generator state can live in registers for the 13 draws.
+    Random local = rng;
+    for (double& v : xi) v = local.normal();
+    rng = local;
     // Block sizes are compile-time constants so each block's loops unroll.
     update_block<3>(0, xi);
     update_block<3>(1, xi);
