@@ -40,6 +40,29 @@ def _rotor_count(log: dict[str, np.ndarray]) -> int:
     return n
 
 
+def _stacked(plt, out_dir, name, title, t, panels):
+    """One figure of time series stacked vertically and saved as out_dir/name.
+
+    panels: list of (ylabel, [(values, style, label), ...]); a label of None draws no legend entry.
+    """
+    fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 1.8 * len(panels) + 1.8))
+    axes = np.atleast_1d(axes)
+    for ax, (ylabel, lines) in zip(axes, panels):
+        for values, style, label in lines:
+            ax.plot(t, values, style, label=label)
+        ax.set_ylabel(ylabel)
+        ax.grid(True, alpha=0.3)
+    if any(label for _, lines in panels[:1] for _, _, label in lines):
+        axes[0].legend(loc="upper right")
+    axes[-1].set_xlabel("t [s]")
+    fig.suptitle(title.strip())
+    fig.tight_layout()
+    path = os.path.join(out_dir, name)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def make_figures(log: dict[str, np.ndarray], out_dir: str, title: str = "") -> list[str]:
     import matplotlib
 
@@ -47,79 +70,42 @@ def make_figures(log: dict[str, np.ndarray], out_dir: str, title: str = "") -> l
     import matplotlib.pyplot as plt
 
     os.makedirs(out_dir, exist_ok=True)
-    written = []
     t = log["t"]
     yaw = yaw_from_quaternion(log["qw"], log["qx"], log["qy"], log["qz"])
     actual = {"x": log["x"], "y": log["y"], "z": log["z"], "yaw": yaw}
     units = {"x": "m", "y": "m", "z": "m", "yaw": "rad"}
     has_ref = all(f"ref_{k}" in log for k in actual)
 
-    fig, axes = plt.subplots(4, 1, sharex=True, figsize=(8, 9))
-    for ax, key in zip(axes, actual):
-        ax.plot(t, actual[key], label="actual")
+    tracking = []
+    for key, values in actual.items():
+        lines = [(values, "-", "actual")]
         if has_ref:
-            ax.plot(t, log[f"ref_{key}"], "--", label="reference")
-        ax.set_ylabel(f"{key} [{units[key]}]")
-        ax.grid(True, alpha=0.3)
-    axes[0].legend(loc="upper right")
-    axes[-1].set_xlabel("t [s]")
-    fig.suptitle(f"{title} tracking".strip())
-    fig.tight_layout()
-    path = os.path.join(out_dir, "tracking.png")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    written.append(path)
+            lines.append((log[f"ref_{key}"], "--", "reference"))
+        tracking.append((f"{key} [{units[key]}]", lines))
+    written = [_stacked(plt, out_dir, "tracking.png", f"{title} tracking", t, tracking)]
 
     if has_ref:
-        fig, axes = plt.subplots(4, 1, sharex=True, figsize=(8, 9))
-        for ax, key in zip(axes, actual):
-            err = log[f"ref_{key}"] - actual[key]
+        errors = []
+        for key, values in actual.items():
+            err = log[f"ref_{key}"] - values
             if key == "yaw":
                 err = (err + np.pi) % (2 * np.pi) - np.pi
-            ax.plot(t, err)
-            ax.set_ylabel(f"e_{key} [{units[key]}]")
-            ax.grid(True, alpha=0.3)
-        axes[-1].set_xlabel("t [s]")
-        fig.suptitle(f"{title} tracking errors".strip())
-        fig.tight_layout()
-        path = os.path.join(out_dir, "errors.png")
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        written.append(path)
+            errors.append((f"e_{key} [{units[key]}]", [(err, "-", None)]))
+        written.append(_stacked(plt, out_dir, "errors.png", f"{title} tracking errors", t, errors))
 
-    n = _rotor_count(log)
-    if n:
-        fig, axes = plt.subplots(n, 1, sharex=True, figsize=(8, 1.8 * n + 1))
-        axes = np.atleast_1d(axes)
-        for i, ax in enumerate(axes):
-            if f"omega_ref_{i}" in log:
-                ax.plot(t, log[f"omega_ref_{i}"], "--", label="commanded")
-            ax.plot(t, log[f"omega_{i}"], label="achieved")
-            ax.set_ylabel(f"w_{i} [rad/s]")
-            ax.grid(True, alpha=0.3)
-        axes[0].legend(loc="upper right")
-        axes[-1].set_xlabel("t [s]")
-        fig.suptitle(f"{title} rotor speeds".strip())
-        fig.tight_layout()
-        path = os.path.join(out_dir, "rotors.png")
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        written.append(path)
+    rotors = []
+    for i in range(_rotor_count(log)):
+        lines = [(log[f"omega_ref_{i}"], "--", "commanded")] if f"omega_ref_{i}" in log else []
+        lines.append((log[f"omega_{i}"], "-", "achieved"))
+        rotors.append((f"w_{i} [rad/s]", lines))
+    if rotors:
+        written.append(_stacked(plt, out_dir, "rotors.png", f"{title} rotor speeds", t, rotors))
 
-    force_cols = ["u_T", "u_tau_x", "u_tau_y", "u_tau_z"]
+    force_cols = {"u_T": "N", "u_tau_x": "N m", "u_tau_y": "N m", "u_tau_z": "N m"}
     if all(c in log for c in force_cols):
-        fig, axes = plt.subplots(4, 1, sharex=True, figsize=(8, 9))
-        for ax, c, unit in zip(axes, force_cols, ["N", "N m", "N m", "N m"]):
-            ax.plot(t, log[c])
-            ax.set_ylabel(f"{c[2:]} [{unit}]")
-            ax.grid(True, alpha=0.3)
-        axes[-1].set_xlabel("t [s]")
-        fig.suptitle(f"{title} generalized forces".strip())
-        fig.tight_layout()
-        path = os.path.join(out_dir, "forces.png")
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        written.append(path)
+        forces = [(f"{c[2:]} [{unit}]", [(log[c], "-", None)]) for c, unit in force_cols.items()]
+        written.append(
+            _stacked(plt, out_dir, "forces.png", f"{title} generalized forces", t, forces))
 
     fig = plt.figure(figsize=(7, 6))
     ax = fig.add_subplot(projection="3d")

@@ -26,19 +26,7 @@ namespace fs = std::filesystem;
 const std::string kConfigDir = test::source_path("config/controllers");
 const std::string kBadDir = test::source_path("tests/data/bad_controllers");
 
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InvalidArgument& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "expected InvalidArgument, got another exception: " << e.what();
-    return {};
-  }
-  ADD_FAILURE() << "expected InvalidArgument, nothing was thrown";
-  return {};
-}
+using test::error_of;
 
 ControllerConfig shipped(const std::string& name) {
   return load_controller_config(kConfigDir + "/" + name + ".yaml");
