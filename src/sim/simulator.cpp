@@ -156,9 +156,14 @@ StepStatus Simulator::check_state(const StateVector& x, std::string& message) co
     return StepStatus::kNonFinite;
   }
   const DivergenceLimits& lim = config_.divergence;
-  const double p = x.segment<3>(kPosition).norm(), v = x.segment<3>(kVelocity).norm(),
-               w = x.segment<3>(kAngularVelocity).norm();
-  if (p > lim.max_position_m || v > lim.max_speed_m_s || w > lim.max_angular_speed_rad_s) {
+  // Squared norms against squared limits (the limits are positive): no square roots on the
+  // path taken every step; the norms themselves are only needed for the message.
+  const double p2 = x.segment<3>(kPosition).squaredNorm(),
+               v2 = x.segment<3>(kVelocity).squaredNorm(),
+               w2 = x.segment<3>(kAngularVelocity).squaredNorm();
+  if (p2 > lim.max_position_m * lim.max_position_m || v2 > lim.max_speed_m_s * lim.max_speed_m_s ||
+      w2 > lim.max_angular_speed_rad_s * lim.max_angular_speed_rad_s) {
+    const double p = std::sqrt(p2), v = std::sqrt(v2), w = std::sqrt(w2);
     message = detail::concat("state diverged at t = ", data_.time_s + config_.dt_s,
                              " s: |p| = ", p, " m (limit ", lim.max_position_m, "), |v| = ", v,
                              " m/s (limit ", lim.max_speed_m_s, "), |w| = ", w, " rad/s (limit ",

@@ -44,26 +44,49 @@ class HeldRotorWrench {
     }
     body_drag_map_.setZero();
     if (sw.body_drag) body_drag_map_.topLeftCorner<3, 3>() = -model.body_drag_Ns_per_m();
+    // Copies of the per-rotor vectors the ground-effect loop reads four times per step, packed
+    // contiguously here instead of chased through the model's rotor and geometry arrays.
+    for (int i = 0; i < num_rotors_; ++i) {
+      rotor_position_.col(i) = model.rotor(i).position_m;
+      ground_direction_.col(i) << model.rotor(i).axis, model.rotor_geometry(i).arm_cross_axis;
+    }
+    // Speed-independent parts of the constant wrench and of the rotor angular momentum:
+    // thrust along the axis, its moment r x a, the yaw reaction (Eq. 2.24) and the drag moment
+    // are all T_i times a fixed vector; the rotor momentum is w_i times a fixed vector.
+    for (int i = 0; i < num_rotors_; ++i) {
+      const RotorParams& r = model.rotor(i);
+      double axial_per_thrust = r.spin * r.yaw_moment_per_thrust_m;  // Eq. 2.24
+      if (sw.drag_moment) axial_per_thrust -= r.spin * r.drag_moment_coefficient;
+      thrust_wrench_.col(i) << r.axis,
+          model.rotor_geometry(i).arm_cross_axis + axial_per_thrust * r.axis;
+      momentum_per_speed_.col(i) =
+          sw.gyroscopic ? Vec3(r.spin * r.inertia_kgm2 * r.axis) : Vec3::Zero();
+    }
+    // Most airframes have a principal-axis (diagonal) inertia. Then J w and J^-1 y are three
+    // products each instead of nine multiply-adds; the off-diagonal terms are exact zeros, so
+    // skipping them gives the same numbers.
+    const Mat3& J = model.inertia_kgm2();
+    const Mat3& J_inv = model.inertia_inverse();
+    diagonal_inertia_ = J.isDiagonal(0.0) && J_inv.isDiagonal(0.0);
+    inertia_diagonal_ = J.diagonal();
+    inertia_inverse_diagonal_ = J_inv.diagonal();
   }
 
   const DisturbanceSwitches& switches() const { return switches_; }
 
   /// Rotor-speed-dependent constants for one step (configure() must have been called).
   void prepare(const VehicleModel& model, const RotorVector& speeds_rad_s) {
-    const DisturbanceSwitches& sw = switches_;
+    // Per rotor only the thrust polynomial is evaluated here; everything else is a 6-vector
+    // (or 3-vector) per unit thrust or speed, folded together in configure().
     constant_.setZero();
     rotor_momentum_B_.setZero();
     for (int i = 0; i < num_rotors_; ++i) {
       const RotorParams& r = model.rotor(i);
       const double w = speeds_rad_s[i];
       const double thrust_N = r.thrust(w);
-      double axial_moment = r.spin * r.yaw_moment_per_thrust_m * thrust_N;  // Eq. 2.24
-      if (sw.drag_moment) axial_moment -= r.spin * r.drag_moment_coefficient * thrust_N;
-      constant_.head<3>() += thrust_N * r.axis;
-      constant_.tail<3>() +=
-          thrust_N * model.rotor_geometry(i).arm_cross_axis + axial_moment * r.axis;
+      constant_ += thrust_N * thrust_wrench_.col(i);
+      rotor_momentum_B_ += w * momentum_per_speed_.col(i);
       abs_speed_[i] = std::abs(w);
-      if (sw.gyroscopic) rotor_momentum_B_ += (r.spin * r.inertia_kgm2 * w) * r.axis;
       ground_gain_[static_cast<std::size_t>(i)] = r.ground_effect_coefficient * thrust_N;
     }
     // Fixed-size axpy per rotor: cheaper than a dynamic-size matrix-vector product here.
@@ -85,11 +108,9 @@ class HeldRotorWrench {
       const double z = x[kPosition + 2];
       const double h_min = model.ground_effect_min_height_m();
       for (int i = 0; i < num_rotors_; ++i) {
-        const RotorParams& r = model.rotor(i);
-        const double h = std::max(z + R.row(2).dot(r.position_m), h_min);
+        const double h = std::max(z + R.row(2).dot(rotor_position_.col(i)), h_min);
         const double s = ground_gain_[static_cast<std::size_t>(i)] / (h * h);
-        wrench.head<3>() += s * r.axis;
-        wrench.tail<3>() += s * model.rotor_geometry(i).arm_cross_axis;
+        wrench += s * ground_direction_.col(i);  // [a_i; r_i x a_i]
       }
     }
     return wrench;
@@ -100,6 +121,11 @@ class HeldRotorWrench {
                          const StateVector& x) const {
     const Mat3 R = math::rotation_matrix<double>(x.segment<4>(state_index::kQuaternion));
     const Eigen::Matrix<double, 6, 1> w = evaluate(model, env, x, R);
+    if (diagonal_inertia_) {
+      return newton_euler_diagonal_inertia<double>(x, R, w.head<3>(), w.tail<3>(),
+                                                   model.mass_kg(), inertia_diagonal_,
+                                                   inertia_inverse_diagonal_, env.gravity_W_m_s2);
+    }
     return newton_euler<double>(x, R, w.head<3>(), w.tail<3>(), model.mass_kg(),
                                 model.inertia_kgm2(), model.inertia_inverse(),
                                 env.gravity_W_m_s2);
@@ -115,6 +141,13 @@ class HeldRotorWrench {
   Matrix6 velocity_map_ = Matrix6::Zero();
   Vec3 rotor_momentum_B_ = Vec3::Zero();
   std::array<double, kMaxRotors> ground_gain_{};
+  Eigen::Matrix<double, 3, kMaxRotors> rotor_position_ = Eigen::Matrix<double, 3, kMaxRotors>::Zero();
+  Eigen::Matrix<double, 6, kMaxRotors> ground_direction_ = Eigen::Matrix<double, 6, kMaxRotors>::Zero();
+  Eigen::Matrix<double, 6, kMaxRotors> thrust_wrench_ = Eigen::Matrix<double, 6, kMaxRotors>::Zero();
+  Eigen::Matrix<double, 3, kMaxRotors> momentum_per_speed_ = Eigen::Matrix<double, 3, kMaxRotors>::Zero();
+  bool diagonal_inertia_ = false;
+  Vec3 inertia_diagonal_ = Vec3::Zero();
+  Vec3 inertia_inverse_diagonal_ = Vec3::Zero();
 };
 
 }  // namespace dronetwin

@@ -30,6 +30,24 @@ DRONETWIN_HOT_INLINE StateVectorT<T> newton_euler(const StateVectorT<T>& x, cons
   return d;
 }
 
+/// newton_euler() for a diagonal inertia J = diag(j) with J^-1 = diag(j_inv) (the diagonals of
+/// the model's matrices): the same equations, without the products by zero off-diagonal terms.
+template <class T>
+DRONETWIN_HOT_INLINE StateVectorT<T> newton_euler_diagonal_inertia(
+    const StateVectorT<T>& x, const Matrix3<T>& R, const Vector3<T>& F_B, const Vector3<T>& M_B,
+    double mass_kg, const Vec3& j, const Vec3& j_inv, const Vec3& gravity_W) {
+  using namespace state_index;
+  const Vector3<T> w = x.template segment<3>(kAngularVelocity);
+  StateVectorT<T> d;
+  d.template segment<3>(kPosition) = x.template segment<3>(kVelocity);
+  d.template segment<3>(kVelocity) = R * F_B / T(mass_kg) + gravity_W.cast<T>();
+  d.template segment<4>(kQuaternion) =
+      math::derivative<T>(x.template segment<4>(kQuaternion), w);
+  const Vector3<T> Jw = j.cast<T>().cwiseProduct(w);
+  d.template segment<3>(kAngularVelocity) = j_inv.cast<T>().cwiseProduct(M_B - w.cross(Jw));
+  return d;
+}
+
 /// Projects the quaternion block back onto the unit sphere (drift from integration).
 inline void normalize_quaternion(StateVector& x) {
   x.segment<4>(state_index::kQuaternion).normalize();
