@@ -1,2 +1,87 @@
-"""dronetwin: Python side of the dronetwin multirotor digital twin (plots for now; the pybind11
-bindings arrive as dronetwin._core)."""
+"""dronetwin: a deterministic, steppable digital twin of multirotor drones (Python side).
+
+The engine is C++ (the extension ``dronetwin._core``); this package re-exports it and adds
+numpy/pandas helpers. The same code runs behind the ``dronetwin`` command line tool, so a run
+scripted here and the same run from the CLI give bitwise-identical logs.
+
+    import dronetwin as dt
+    model = dt.load_model("models/qdrone2.yaml")
+    sim = dt.Simulator(model, dt.SimConfig(seed=1))
+    sim.reset(dt.Simulator.hover_state([0, 0, 1]), model.hover_speeds_rad_s())
+    pid = dt.load_controller("config/controllers/pid_tuned.yaml", model, 1000.0)
+    loop = dt.ClosedLoop(sim, pid, dt.PiecewiseConstantReference.thesis_pulse(), 1000.0)
+    log = loop.record(10.0)            # dict of numpy arrays
+    print(dt.rmse(log))                # [x, y, z, yaw]
+
+Errors from the engine arrive as ValueError (bad input: names the file, field or argument) and
+RuntimeError (a failed simulation); wrong array shapes or dtypes raise ValueError / TypeError.
+"""
+
+from __future__ import annotations
+
+import os as _os
+
+import numpy as _np
+
+from ._core import *  # noqa: F401,F403  (the bound classes and functions)
+from ._core import __version__, read_log_table  # noqa: F401
+
+STATE_COLUMNS = ("x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "wx", "wy", "wz")
+
+
+def read_log(path, as_frame=False):
+    """Reads a run log (``log.csv`` of ``dronetwin run`` / ``run_experiment``).
+
+    Returns a dict {column name: float64 array} (``as_frame=False``) or a pandas DataFrame
+    (``as_frame=True``; needs pandas). ``path`` may be the CSV or the run directory holding it.
+    """
+    if _os.path.isdir(path):
+        path = _os.path.join(path, "log.csv")
+    columns, values = read_log_table(str(path))
+    if as_frame:
+        try:
+            import pandas as pd
+        except ImportError as e:  # pragma: no cover - depends on the machine
+            raise ImportError("read_log(as_frame=True) needs pandas (Debian: python3-pandas)") from e
+        return pd.DataFrame(values, columns=columns)
+    return {name: values[:, i] for i, name in enumerate(columns)}
+
+
+def yaw_from_quaternions(q):
+    """ZYX yaw (rad) of quaternions q[..., 4] = [w, x, y, z] (atan2 form, thesis notes #23)."""
+    q = _np.asarray(q, dtype=float)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return _np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def rmse(record, window_s=None):
+    """Tracking RMSE [x, y, z, yaw] of a ClosedLoop.record() result (true state vs reference).
+
+    ``window_s=(t0, t1)`` limits the rows used; the yaw error is wrapped into [-pi, pi]. This is
+    the same definition as the runner's summary (docs/experiment-format.md).
+    """
+    t = record["t"]
+    keep = _np.ones_like(t, dtype=bool)
+    if window_s is not None:
+        keep = (t >= window_s[0]) & (t <= window_s[1])
+    x = record["state"][keep]
+    ref = record["reference"][keep]
+    e = _np.empty((x.shape[0], 4))
+    e[:, :3] = ref[:, :3] - x[:, :3]
+    dyaw = ref[:, 3] - yaw_from_quaternions(x[:, 6:10])
+    e[:, 3] = _np.arctan2(_np.sin(dyaw), _np.cos(dyaw))
+    return _np.sqrt(_np.mean(e * e, axis=0))
+
+
+def default_data_dir():
+    """The directory holding ``models/`` and ``config/``: the source tree when run from a build
+    tree, else the installed share directory (``<prefix>/share/dronetwin``)."""
+    here = _os.path.dirname(_os.path.abspath(__file__))
+    for candidate in (
+        _os.environ.get("DRONETWIN_DATA_DIR", ""),
+        _os.path.join(here, "..", "..", "..", ".."),  # <src>/build/<preset>/python/dronetwin
+        _os.path.join(here, "..", "..", "..", "..", "share", "dronetwin"),  # <prefix>/lib/pythonX/dist-packages
+    ):
+        if candidate and _os.path.isdir(_os.path.join(candidate, "models")):
+            return _os.path.normpath(candidate)
+    return None

@@ -1,7 +1,8 @@
 """Thesis-style figures from a dronetwin flight log.
 
-Usage:  /usr/bin/python3 -m dronetwin.plot RUN_DIR [--out OUT_DIR]
-        (or `dronetwin plot RUN_DIR`, which calls this module)
+Usage:  /usr/bin/python3 python/dronetwin/plot.py RUN_DIR [--out OUT_DIR]
+        (or `dronetwin plot RUN_DIR`, which runs this file; from Python:
+        dronetwin.plot.make_figures(dronetwin.read_log(RUN_DIR), OUT_DIR))
 
 Reads RUN_DIR/log.csv (docs/experiment-format.md) and writes PNGs next to it (or to OUT_DIR):
 tracking.png (x, y, z, yaw against the reference), errors.png, rotors.png (commanded against

@@ -177,8 +177,10 @@ int info_command(const std::string& path) {
   return kExitOk;
 }
 
-// `dronetwin plot DIR`: runs the Python plotting module (python/dronetwin/plot.py) with Debian's
-// interpreter. DRONETWIN_PYTHON overrides the interpreter, DRONETWIN_PYTHONPATH the module path.
+// `dronetwin plot DIR`: runs the plotting script python/dronetwin/plot.py with Debian's
+// interpreter. DRONETWIN_PYTHON overrides the interpreter, DRONETWIN_PYTHONPATH the directory that
+// holds dronetwin/plot.py. The script is run as a file, not as `-m dronetwin.plot`, so plotting
+// needs only numpy and matplotlib, not the compiled extension the package imports.
 int plot_command(const std::string& run_dir, const std::string& out_dir) {
   const char* env_python = std::getenv("DRONETWIN_PYTHON");
   const std::string python = env_python ? env_python : "/usr/bin/python3";
@@ -190,7 +192,7 @@ int plot_command(const std::string& run_dir, const std::string& out_dir) {
   } else {
     module_dir = DRONETWIN_PYTHON_INSTALL_DIR;
   }
-  std::vector<std::string> args{python, "-m", "dronetwin.plot", run_dir};
+  std::vector<std::string> args{python, module_dir + "/dronetwin/plot.py", run_dir};
   if (!out_dir.empty()) {
     args.emplace_back("--out");
     args.push_back(out_dir);

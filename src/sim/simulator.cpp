@@ -91,6 +91,7 @@ void Simulator::reset(const StateVector& state, const RotorVector& rotor_speeds_
   data_.rotor_speed_reference_rad_s = data_.rotor_speed_rad_s;
   data_.state_noise.reset();
   data_.derivative_noise.reset();
+  refresh_measured_state();
   data_.rng.reseed(config_.seed);
   data_.contact = ContactState{};
   if (config_.ground.enabled && data_.state[state_index::kPosition + 2] <= 0.0) {
@@ -111,12 +112,23 @@ void Simulator::set_state(const StateVector& state) {
   const double qn = state.segment<4>(state_index::kQuaternion).norm();
   require(qn > 1e-9, "state[6:10]: the quaternion must be non-zero (it is normalised), got norm ",
           qn);
-  data_.state = state;
-  normalize_quaternion(data_.state);
-  if (config_.ground.enabled && data_.state[state_index::kPosition + 2] < 0.0) {
+  if (config_.ground.enabled && state[state_index::kPosition + 2] < 0.0) {
     require(false, "state[2]: z = ", state[2],
             " m is below the ground (z = 0); disable ground contact to start below it");
   }
+  data_.state = state;
+  normalize_quaternion(data_.state);
+  refresh_measured_state();
+}
+
+void Simulator::refresh_measured_state() {
+  data_.measured_state = data_.state;
+  if (config_.noise.enabled) data_.measured_state += data_.state_noise.value();
+}
+
+void Simulator::set_noise_enabled(bool enabled) {
+  config_.noise.enabled = enabled;
+  refresh_measured_state();
 }
 
 void Simulator::set_rotor_speeds(const RotorVector& speeds_rad_s) {
@@ -202,6 +214,7 @@ StepResult Simulator::step() {
     data_.state_noise.step(data_.rng);
     data_.derivative_noise.step(data_.rng);
   }
+  refresh_measured_state();
   ++data_.step_count;
   data_.time_s = static_cast<double>(data_.step_count) * config_.dt_s;
   return {StepStatus::kOk, 1};
@@ -221,10 +234,6 @@ StepResult Simulator::step(std::int64_t n) {
   return total;
 }
 
-StateVector Simulator::measured_state() const {
-  if (!config_.noise.enabled) return data_.state;
-  return data_.state + data_.state_noise.value();
-}
 
 StateVector Simulator::state_derivative() const {
   return dronetwin::state_derivative<double>(*model_, config_.disturbances, config_.environment,

@@ -56,6 +56,7 @@ class ClosedLoop {
 
   int steps_per_control() const { return steps_per_control_; }
   const Reference& reference() const { return reference_; }
+  const Simulator& simulator() const { return sim_; }
   const ControllerBase& controller() const { return controller_; }
   const ControlInput& last_input() const { return input_; }
   /// The generalized force [T, tau_x, tau_y, tau_z] the last rotor command produces (for

@@ -51,6 +51,9 @@ struct SimData {
   double time_s = 0.0;
   std::int64_t step_count = 0;
   StateVector state = StateVector::Zero();
+  /// state + state noise, kept current by every step, reset, set_state and set_noise_enabled
+  /// (equal to state when noise is off). Stored, not computed, so bindings can view it.
+  StateVector measured_state = StateVector::Zero();
   RotorVector rotor_speed_rad_s;
   RotorVector rotor_speed_reference_rad_s;
   OrnsteinUhlenbeck state_noise;
@@ -111,8 +114,9 @@ class Simulator {
   double time_s() const { return data_.time_s; }
   std::int64_t step_count() const { return data_.step_count; }
   const StateVector& state() const { return data_.state; }
-  /// state() + OU noise (equals state() when noise is off).
-  StateVector measured_state() const;
+  /// state() + OU noise (equals state() when noise is off), as of the last step, reset,
+  /// set_state or set_noise_enabled. Writing SimData::state directly leaves it stale until then.
+  const StateVector& measured_state() const { return data_.measured_state; }
   /// f(state, rotor speeds): [v_W, a_W, q_dot, w_dot_B] at the current instant.
   StateVector state_derivative() const;
   /// state_derivative() + an independent OU noise process.
@@ -134,7 +138,10 @@ class Simulator {
   // ---- run settings that may change mid-run -------------------------------------------------
   void set_wind(const Vec3& wind_W_m_s);
   void set_disturbances(const DisturbanceSwitches& switches);
-  void set_noise_enabled(bool enabled) { config_.noise.enabled = enabled; }
+  void set_noise_enabled(bool enabled);
+  /// Recomputes measured_state() from SimData::state and the noise (for code that wrote the state
+  /// through mutable_data()).
+  void refresh_measured_state();
 
  private:
   void check_rotor_vector(const RotorVector& v, const char* what) const;

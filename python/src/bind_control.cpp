@@ -1,0 +1,409 @@
+// Bindings of the control layer: references, ControllerBase (subclassable in Python), the PID and
+// SE(3) controllers, and ClosedLoop (with an in-memory recorder returning numpy arrays).
+//
+// A Python controller overrides `calculate_u(self, inp)` (returning [T, tau_x, tau_y, tau_z]) or
+// `calculate_actuator_cmd(self, inp)` (returning rotor speed references). The C++ entry points
+// keep their checks: a Python controller that returns NaN or the wrong length is reported with its
+// name, never flown. Python callbacks take the GIL themselves, so ClosedLoop.run may release it.
+
+#include <cstring>
+
+#include "bindings.hpp"
+#include "dronetwin/control/closed_loop.hpp"
+#include "dronetwin/control/controller_base.hpp"
+#include "dronetwin/control/pid.hpp"
+#include "dronetwin/control/reference.hpp"
+#include "dronetwin/control/se3.hpp"
+#include "dronetwin/core/error.hpp"
+#include "dronetwin/math/quaternion.hpp"
+
+namespace dronetwin::python {
+
+namespace {
+
+// ---- Python-subclassable Reference ------------------------------------------------------------
+class PyReference : public Reference {
+ public:
+  ReferencePoint at(double t_s) const override {
+    PYBIND11_OVERRIDE_PURE(ReferencePoint, Reference, at, t_s);
+  }
+  std::string describe() const override {
+    py::gil_scoped_acquire gil;
+    if (py::function f = py::get_override(static_cast<const Reference*>(this), "describe")) {
+      return f().cast<std::string>();
+    }
+    return "python reference";
+  }
+  std::unique_ptr<Reference> clone() const override {
+    throw InvalidArgument(
+        "a reference written in Python cannot be copied by C++; use it directly (ClosedLoop "
+        "keeps it alive) rather than in an experiment file");
+  }
+};
+
+// ---- Python-subclassable ControllerBase -------------------------------------------------------
+class PyController : public ControllerBase {
+ public:
+  using ControllerBase::ControllerBase;
+
+  std::string_view name() const override {
+    py::gil_scoped_acquire gil;
+    if (py::function f = py::get_override(static_cast<const ControllerBase*>(this), "name")) {
+      name_ = f().cast<std::string>();
+    } else {
+      name_ = py::str(py::cast(this).get_type().attr("__name__")).cast<std::string>();
+    }
+    return name_;
+  }
+  ControlLevel level() const override {
+    py::gil_scoped_acquire gil;
+    if (py::function f = py::get_override(static_cast<const ControllerBase*>(this), "level")) {
+      return f().cast<ControlLevel>();
+    }
+    // A Python class that implements only calculate_actuator_cmd commands the rotors itself.
+    const bool has_u = static_cast<bool>(
+        py::get_override(static_cast<const ControllerBase*>(this), "calculate_u"));
+    const bool has_cmd = static_cast<bool>(
+        py::get_override(static_cast<const ControllerBase*>(this), "calculate_actuator_cmd"));
+    return has_cmd && !has_u ? ControlLevel::kRotorSpeed : ControlLevel::kGeneralizedForce;
+  }
+  std::unique_ptr<ControllerBase> clone() const override {
+    throw InvalidArgument(detail::concat("controller '", std::string(name()),
+                          "' is written in Python and cannot be copied by C++; use "
+                          "copy.deepcopy in Python"));
+  }
+  void reset() override { PYBIND11_OVERRIDE(void, ControllerBase, reset, ); }
+
+ protected:
+  GeneralizedForce do_calculate_u(const ControlInput& in) override {
+    {
+      py::gil_scoped_acquire gil;
+      if (py::function f = py::get_override(static_cast<const ControllerBase*>(this), "calculate_u")) {
+        const py::object r = f(in);
+        return to_fixed<4>(r, "calculate_u result");
+      }
+    }
+    return ControllerBase::do_calculate_u(in);
+  }
+  RotorVector do_calculate_actuator_cmd(const ControlInput& in) override {
+    {
+      py::gil_scoped_acquire gil;
+      if (py::function f =
+              py::get_override(static_cast<const ControllerBase*>(this), "calculate_actuator_cmd")) {
+        const py::object r = f(in);
+        return to_rotor_vector(r, model().num_rotors(), "calculate_actuator_cmd result");
+      }
+    }
+    return ControllerBase::do_calculate_actuator_cmd(in);
+  }
+
+ private:
+  mutable std::string name_;
+};
+
+/// Records a closed-loop run into preallocated numpy arrays (one row at t = 0 and after every
+/// `every`-th step), with the GIL released while stepping.
+py::dict record(ClosedLoop& loop, double duration_s, int every) {
+  const Simulator& sim = loop.simulator();
+  if (!(duration_s >= 0.0) || !std::isfinite(duration_s))
+    throw py::value_error("record: duration_s must be finite and >= 0, got " + std::to_string(duration_s));
+  if (every < 1) throw py::value_error("record: every_n_steps must be >= 1, got " + std::to_string(every));
+  const double dt = sim.config().dt_s;
+  const auto steps = static_cast<std::int64_t>(std::ceil(duration_s / dt - 1e-9));
+  const py::ssize_t rows = static_cast<py::ssize_t>(steps / every + 1);
+  const py::ssize_t nr = sim.model().num_rotors();
+  py::array_t<double> t({rows}), x({rows, py::ssize_t{kStateSize}}), xm({rows, py::ssize_t{kStateSize}}),
+      w({rows, nr}), wref({rows, nr}), ref({rows, py::ssize_t{4}}), u({rows, py::ssize_t{4}}),
+      sat({rows});
+  double *pt = t.mutable_data(), *px = x.mutable_data(), *pxm = xm.mutable_data(),
+         *pw = w.mutable_data(), *pwr = wref.mutable_data(), *pref = ref.mutable_data(),
+         *pu = u.mutable_data(), *psat = sat.mutable_data();
+  py::ssize_t filled = 0;
+  StepResult result;
+  {
+    py::gil_scoped_release release;
+    const auto log_row = [&] {
+      const py::ssize_t r = filled++;
+      pt[r] = sim.time_s();
+      std::memcpy(px + r * kStateSize, sim.state().data(), sizeof(double) * kStateSize);
+      std::memcpy(pxm + r * kStateSize, sim.measured_state().data(), sizeof(double) * kStateSize);
+      std::memcpy(pw + r * nr, sim.rotor_speeds_rad_s().data(), sizeof(double) * static_cast<std::size_t>(nr));
+      std::memcpy(pwr + r * nr, sim.rotor_speed_reference_rad_s().data(),
+                  sizeof(double) * static_cast<std::size_t>(nr));
+      const ReferencePoint p = loop.reference().at(sim.time_s());
+      pref[4 * r + 0] = p.position_m.x();
+      pref[4 * r + 1] = p.position_m.y();
+      pref[4 * r + 2] = p.position_m.z();
+      pref[4 * r + 3] = p.yaw_rad;
+      for (int k = 0; k < 4; ++k) pu[4 * r + k] = loop.last_command()[k];
+      psat[r] = loop.last_allocation().saturated ? 1.0 : 0.0;
+    };
+    loop.update();
+    log_row();
+    for (std::int64_t k = 1; k <= steps; ++k) {
+      result = loop.step();
+      if (!result.ok()) break;
+      if (k % every == 0) {
+        loop.update();  // the command in effect from this row's instant on
+        log_row();
+      }
+    }
+  }
+  py::dict d;
+  const auto trim = [&](py::array_t<double>& a) -> py::object {
+    if (filled == rows) return a;
+    return a[py::slice(0, filled, 1)];
+  };
+  d["t"] = trim(t);
+  d["state"] = trim(x);
+  d["measured_state"] = trim(xm);
+  d["rotor_speeds_rad_s"] = trim(w);
+  d["rotor_speed_reference_rad_s"] = trim(wref);
+  d["reference"] = trim(ref);
+  d["u"] = trim(u);
+  d["saturated"] = trim(sat);
+  d["status"] = sim.status();
+  d["failure_message"] = sim.failure_message();
+  d["state_columns"] = py::make_tuple("x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "wx", "wy", "wz");
+  return d;
+}
+
+}  // namespace
+
+void bind_control(py::module_& m) {
+  py::class_<ReferencePoint>(m, "ReferencePoint",
+                             "The desired flat output at one instant, with its derivatives.")
+      .def(py::init([](py::handle p, py::handle v, py::handle a, double yaw, double yaw_rate) {
+             ReferencePoint r;
+             r.position_m = to_fixed<3>(p, "ReferencePoint.position_m");
+             if (!v.is_none()) r.velocity_m_s = to_fixed<3>(v, "ReferencePoint.velocity_m_s");
+             if (!a.is_none()) r.acceleration_m_s2 = to_fixed<3>(a, "ReferencePoint.acceleration_m_s2");
+             r.yaw_rad = yaw;
+             r.yaw_rate_rad_s = yaw_rate;
+             return r;
+           }),
+           py::arg("position_m"), py::arg("velocity_m_s") = py::none(),
+           py::arg("acceleration_m_s2") = py::none(), py::arg("yaw_rad") = 0.0,
+           py::arg("yaw_rate_rad_s") = 0.0)
+      .def_readwrite("position_m", &ReferencePoint::position_m)
+      .def_readwrite("velocity_m_s", &ReferencePoint::velocity_m_s)
+      .def_readwrite("acceleration_m_s2", &ReferencePoint::acceleration_m_s2)
+      .def_readwrite("yaw_rad", &ReferencePoint::yaw_rad)
+      .def_readwrite("yaw_rate_rad_s", &ReferencePoint::yaw_rate_rad_s);
+
+  py::class_<Reference, PyReference, std::shared_ptr<Reference>>(
+      m, "Reference",
+      "A trajectory to track: at(t) gives the ReferencePoint at time t (s). Subclass it in Python\n"
+      "by overriding `at(self, t_s)` (and optionally `describe(self)`).")
+      .def(py::init<>())
+      .def("at", &Reference::at, py::arg("t_s"))
+      .def("describe", &Reference::describe)
+      .def("__repr__", [](const Reference& r) { return "<" + r.describe() + ">"; });
+
+  py::class_<SetpointReference, Reference, std::shared_ptr<SetpointReference>>(
+      m, "SetpointReference", "Hold one position and yaw.")
+      .def(py::init([](py::handle p, double yaw) {
+             return std::make_shared<SetpointReference>(to_fixed<3>(p, "SetpointReference: position_m"), yaw);
+           }),
+           py::arg("position_m"), py::arg("yaw_rad") = 0.0);
+
+  py::class_<PiecewiseConstantReference::Segment>(m, "PiecewiseSegment",
+                                                  "A step of a piecewise-constant reference.")
+      .def(py::init([](double start, py::handle p, double yaw) {
+             return PiecewiseConstantReference::Segment{start, to_fixed<3>(p, "PiecewiseSegment: position_m"), yaw};
+           }),
+           py::arg("start_s"), py::arg("position_m"), py::arg("yaw_rad") = 0.0)
+      .def_readwrite("start_s", &PiecewiseConstantReference::Segment::start_s)
+      .def_readwrite("position_m", &PiecewiseConstantReference::Segment::position_m)
+      .def_readwrite("yaw_rad", &PiecewiseConstantReference::Segment::yaw_rad);
+
+  py::class_<PiecewiseConstantReference, Reference, std::shared_ptr<PiecewiseConstantReference>>(
+      m, "PiecewiseConstantReference", "Position and yaw steps (zero-order hold).")
+      .def(py::init([](std::vector<PiecewiseConstantReference::Segment> s) {
+             return std::make_shared<PiecewiseConstantReference>(std::move(s));
+           }),
+           py::arg("segments"))
+      .def_static("thesis_pulse",
+                  [] { return std::make_shared<PiecewiseConstantReference>(PiecewiseConstantReference::thesis_pulse()); },
+                  "The pulse of thesis Eq. 3.14.")
+      .def_property_readonly("segments", &PiecewiseConstantReference::segments);
+
+  py::class_<CircleReference, Reference, std::shared_ptr<CircleReference>>(
+      m, "CircleReference", "Circle of thesis Eq. 3.28 (default: radius 2 m, period 7 s, z = 1 m).")
+      .def(py::init([](py::handle c, double r, double period, double yaw) {
+             return std::make_shared<CircleReference>(to_fixed<3>(c, "CircleReference: center_m"), r, period, yaw);
+           }),
+           py::arg("center_m") = Vec3(0, 0, 1), py::arg("radius_m") = 2.0, py::arg("period_s") = 7.0,
+           py::arg("yaw_rad") = 0.0);
+
+  py::class_<FigureEightReference, Reference, std::shared_ptr<FigureEightReference>>(
+      m, "FigureEightReference", "Figure eight of thesis Eq. 3.25 (0.8 m x 0.6 m, 60 s, z = 1.2 m).")
+      .def(py::init([](py::handle c, double ax, double ay, double period) {
+             return std::make_shared<FigureEightReference>(to_fixed<3>(c, "FigureEightReference: center_m"), ax, ay, period);
+           }),
+           py::arg("center_m") = Vec3(0, 0, 1.2), py::arg("amplitude_x_m") = 0.8,
+           py::arg("amplitude_y_m") = 0.6, py::arg("period_s") = 60.0);
+
+  py::class_<WaypointReference::Waypoint>(m, "Waypoint", "A timed waypoint.")
+      .def(py::init([](double t, py::handle p, double yaw) {
+             return WaypointReference::Waypoint{t, to_fixed<3>(p, "Waypoint: position_m"), yaw};
+           }),
+           py::arg("time_s"), py::arg("position_m"), py::arg("yaw_rad") = 0.0)
+      .def_readwrite("time_s", &WaypointReference::Waypoint::time_s)
+      .def_readwrite("position_m", &WaypointReference::Waypoint::position_m)
+      .def_readwrite("yaw_rad", &WaypointReference::Waypoint::yaw_rad);
+
+  py::class_<WaypointReference, Reference, std::shared_ptr<WaypointReference>>(
+      m, "WaypointReference", "Minimum-jerk segments through timed waypoints.")
+      .def(py::init([](std::vector<WaypointReference::Waypoint> w) {
+             return std::make_shared<WaypointReference>(std::move(w));
+           }),
+           py::arg("waypoints"));
+
+  py::class_<ControlInput>(m, "ControlInput",
+                           "What a controller sees at one control step: time, measured state, its "
+                           "derivative, and the reference.")
+      .def(py::init<>())
+      .def_readwrite("time_s", &ControlInput::time_s)
+      .def_readwrite("state", &ControlInput::state, "Measured X (13,).")
+      .def_readwrite("state_derivative", &ControlInput::state_derivative, "Measured X_dot (13,).")
+      .def_readwrite("reference", &ControlInput::reference);
+
+  py::enum_<ControlLevel>(m, "ControlLevel", "What a controller outputs.")
+      .value("GENERALIZED_FORCE", ControlLevel::kGeneralizedForce,
+             "calculate_u: [T, tau_x, tau_y, tau_z]; dronetwin allocates.")
+      .value("ROTOR_SPEED", ControlLevel::kRotorSpeed, "calculate_actuator_cmd: rotor speeds.");
+
+  py::class_<ControllerBase, PyController>(
+      m, "ControllerBase",
+      "Base of every controller (thesis Sec. 3.5). Subclass it in Python:\n\n"
+      "    class Hover(dronetwin.ControllerBase):\n"
+      "        def __init__(self, model):\n"
+      "            super().__init__(model)\n"
+      "        def calculate_u(self, inp):           # -> [T, tau_x, tau_y, tau_z]\n"
+      "            return [self.model.mass_kg * 9.81, 0.0, 0.0, 0.0]\n\n"
+      "or override calculate_actuator_cmd(self, inp) to return rotor speeds (rad/s). Optional:\n"
+      "name(self) -> str, reset(self). A ClosedLoop runs it at its control rate on the measured\n"
+      "state; the output is checked (finite, right length) before it is flown.")
+      .def(py::init([](const std::shared_ptr<VehicleModel>& model, AllocationMethod allocation) {
+             if (!model) throw py::value_error("ControllerBase: model must be a VehicleModel, got None");
+             return new PyController(model, allocation);
+           }),
+           py::arg("model"), py::arg("allocation") = AllocationMethod::kExact)
+      .def("name", [](const ControllerBase& c) { return std::string(c.name()); })
+      .def("level", &ControllerBase::level)
+      .def("reset", &ControllerBase::reset, "Clears internal memory before a new run.")
+      .def("calculate_u", &ControllerBase::calculate_u, py::arg("inp"),
+           "Generalized force [T, tau_x, tau_y, tau_z] for `inp` (checked).")
+      .def("calculate_actuator_cmd", &ControllerBase::calculate_actuator_cmd, py::arg("inp"),
+           "Rotor speed references for `inp` (allocated for generalized-force controllers).")
+      .def_property_readonly("model", [](const ControllerBase& c) {
+        return std::const_pointer_cast<VehicleModel>(c.model_ptr());
+      })
+      .def_property("allocation", &ControllerBase::allocation, &ControllerBase::set_allocation)
+      .def_property_readonly("last_allocation", &ControllerBase::last_allocation);
+
+  py::enum_<PidYawLoop>(m, "PidYawLoop")
+      .value("THESIS", PidYawLoop::kThesis, "As printed (Eq. 3.19).")
+      .value("RATE", PidYawLoop::kRate, "The inner yaw loop is a rate loop.");
+
+  py::class_<PidGains>(m, "PidGains", "Gains of the cascaded PID (thesis Eq. 3.15-3.22).")
+      .def(py::init<>())
+      .def_static("thesis_simulation", &PidGains::thesis_simulation, "Thesis Eq. 3.21.")
+      .def_static("thesis_hardware", &PidGains::thesis_hardware, "Thesis Eq. 3.22.")
+      .def_readwrite("outer_p", &PidGains::outer_p)
+      .def_readwrite("outer_d", &PidGains::outer_d)
+      .def_readwrite("outer_i", &PidGains::outer_i)
+      .def_readwrite("inner_p", &PidGains::inner_p)
+      .def_readwrite("inner_d1", &PidGains::inner_d1)
+      .def_readwrite("inner_d2", &PidGains::inner_d2)
+      .def_readwrite("mass_kg", &PidGains::mass_kg)
+      .def_readwrite("gravity_m_s2", &PidGains::gravity_m_s2);
+
+  py::class_<PidOptions>(m, "PidOptions", "Modifications of the printed PID (docs/controllers.md).")
+      .def(py::init<>())
+      .def_readwrite("max_tilt_rad", &PidOptions::max_tilt_rad)
+      .def_readwrite("integral_limit", &PidOptions::integral_limit)
+      .def_readwrite("conditional_integration", &PidOptions::conditional_integration)
+      .def_readwrite("yaw_error_wrap", &PidOptions::yaw_error_wrap)
+      .def_readwrite("velocity_feedforward", &PidOptions::velocity_feedforward)
+      .def_readwrite("yaw_frame_mapping", &PidOptions::yaw_frame_mapping)
+      .def_readwrite("yaw_loop", &PidOptions::yaw_loop);
+
+  py::class_<CascadedPid, ControllerBase>(m, "CascadedPid", "Cascaded PID (thesis Eq. 3.15-3.20).")
+      .def(py::init([](const std::shared_ptr<VehicleModel>& model, const PidGains& g,
+                       const PidOptions& o, double period, AllocationMethod a) {
+             return new CascadedPid(model, g, o, period, a);
+           }),
+           py::arg("model"), py::arg("gains"), py::arg("options") = PidOptions{},
+           py::arg("control_period_s") = 1.0e-3, py::arg("allocation") = AllocationMethod::kExact)
+      .def_property_readonly("gains", &CascadedPid::gains)
+      .def_property_readonly("options", &CascadedPid::options)
+      .def_property_readonly("integral", [](const CascadedPid& c) { return Vec4(c.integral()); });
+
+  py::class_<Se3Gains>(m, "Se3Gains", "Gains of the SE(3) controller (thesis Eq. 3.29).")
+      .def(py::init<>())
+      .def_static("thesis", &Se3Gains::thesis)
+      .def_readwrite("position_p", &Se3Gains::position_p)
+      .def_readwrite("position_d", &Se3Gains::position_d)
+      .def_readwrite("attitude_p", &Se3Gains::attitude_p)
+      .def_readwrite("attitude_d", &Se3Gains::attitude_d)
+      .def_readwrite("mass_kg", &Se3Gains::mass_kg)
+      .def_readwrite("gravity_m_s2", &Se3Gains::gravity_m_s2);
+
+  py::class_<Se3Options>(m, "Se3Options", "Modifications of the printed SE(3) controller.")
+      .def(py::init<>())
+      .def_readwrite("gravity_compensation", &Se3Options::gravity_compensation)
+      .def_readwrite("max_tilt_rad", &Se3Options::max_tilt_rad)
+      .def_readwrite("nonnegative_thrust", &Se3Options::nonnegative_thrust);
+
+  py::class_<Se3Controller, ControllerBase>(m, "Se3Controller",
+                                            "Geometric tracking control on SE(3) (thesis Eq. 3.26-3.29).")
+      .def(py::init([](const std::shared_ptr<VehicleModel>& model, const Se3Gains& g,
+                       const Se3Options& o, AllocationMethod a) { return new Se3Controller(model, g, o, a); }),
+           py::arg("model"), py::arg("gains"), py::arg("options") = Se3Options{},
+           py::arg("allocation") = AllocationMethod::kExact)
+      .def_property_readonly("gains", &Se3Controller::gains)
+      .def_property_readonly("options", &Se3Controller::options);
+
+  py::class_<ClosedLoop>(
+      m, "ClosedLoop",
+      "Flies a controller on a simulator along a reference (thesis Eq. 3.11): the controller runs\n"
+      "every 1/control_rate_hz on the measured state, its command is held in between.\n\n"
+      "    loop = dronetwin.ClosedLoop(sim, controller, reference, control_rate_hz=500)\n"
+      "    log = loop.record(10.0)        # numpy arrays: t, state, reference, u, ...\n\n"
+      "The loop keeps the simulator, controller and reference alive.")
+      .def(py::init<Simulator&, ControllerBase&, const Reference&, double>(), py::arg("sim"),
+           py::arg("controller"), py::arg("reference"), py::arg("control_rate_hz"),
+           py::keep_alive<1, 2>(), py::keep_alive<1, 3>(), py::keep_alive<1, 4>())
+      .def("update", &ClosedLoop::update,
+           "Runs the controller if this step is a control instant (idempotent). True if it ran.")
+      .def("step", &ClosedLoop::step, "update(), one physics step, real-time pacing if enabled.")
+      .def("run", &ClosedLoop::run, py::arg("duration_s"), py::call_guard<py::gil_scoped_release>(),
+           "Steps for duration_s of simulated time (GIL released; Python controllers retake it).")
+      .def(
+          "record",
+          [](ClosedLoop& loop, double duration_s, int every) { return record(loop, duration_s, every); },
+          py::arg("duration_s"), py::arg("every_n_steps") = 1,
+          "Like run(), recording a row at the start and after every every_n_steps-th step:\n"
+          "a dict of numpy arrays t (K,), state and measured_state (K, 13), rotor_speeds_rad_s\n"
+          "and rotor_speed_reference_rad_s (K, N), reference (K, 4: x, y, z, yaw), u (K, 4: the\n"
+          "generalized force of the command in effect), saturated (K,), plus status and\n"
+          "failure_message and state_columns.")
+      .def_property("real_time", &ClosedLoop::real_time, &ClosedLoop::set_real_time)
+      .def_property_readonly("achieved_real_time_factor", &ClosedLoop::achieved_real_time_factor)
+      .def_property_readonly("steps_per_control", &ClosedLoop::steps_per_control)
+      .def_property_readonly("last_input", &ClosedLoop::last_input)
+      .def_property_readonly("last_command", [](const ClosedLoop& l) { return Vec4(l.last_command()); })
+      .def_property_readonly("last_rotor_command",
+                             [](const ClosedLoop& l) { return copy_of(l.last_rotor_command()); })
+      .def_property_readonly("control_updates", &ClosedLoop::control_updates)
+      .def_property_readonly("saturated_updates", &ClosedLoop::saturated_updates);
+
+  m.def("yaw_of", [](py::handle q) {
+    const Vec4 qq = to_fixed<4>(q, "yaw_of: quaternion");
+    return std::atan2(2.0 * (qq[0] * qq[3] + qq[1] * qq[2]), 1.0 - 2.0 * (qq[2] * qq[2] + qq[3] * qq[3]));
+  }, py::arg("q_wxyz"), "ZYX yaw (rad) of a quaternion [w, x, y, z] (atan2 form).");
+}
+
+}  // namespace dronetwin::python

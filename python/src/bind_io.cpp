@@ -1,0 +1,179 @@
+// Bindings of the io layer: experiment files and the runner (the same code as `dronetwin run`),
+// controller files, and run logs read into numpy arrays.
+
+#include "bindings.hpp"
+#include "dronetwin/io/controller_config.hpp"
+#include "dronetwin/io/csv_log.hpp"
+#include "dronetwin/io/experiment.hpp"
+#include "dronetwin/io/run_experiment.hpp"
+
+namespace dronetwin::python {
+
+namespace {
+
+ControllerLoopInput& controller_input(Experiment& e) {
+  if (auto* c = std::get_if<ControllerLoopInput>(&e.input)) return *c;
+  throw py::value_error(e.source + ": input is '" + std::string(input_type_name(e.input)) +
+                        "', not a controller");
+}
+
+RunSummary run(const Experiment& e, const std::string& out_dir, const std::shared_ptr<VehicleModel>& model) {
+  py::gil_scoped_release release;
+  if (model) return run_experiment(e, model, out_dir);
+  return run_experiment(e, out_dir);
+}
+
+}  // namespace
+
+void bind_io(py::module_& m) {
+  py::class_<LogSettings>(m, "LogSettings", "What an experiment logs.")
+      .def(py::init<>())
+      .def_readwrite("every_n_steps", &LogSettings::every_n_steps)
+      .def_readwrite("wrench_breakdown", &LogSettings::wrench_breakdown)
+      .def_readwrite("measured", &LogSettings::measured);
+
+  py::class_<Experiment>(
+      m, "Experiment",
+      "An experiment file (docs/experiment-format.md), loaded and checked. Fields may be edited\n"
+      "before running it (sweeps over seeds, wind, duration, ...); run_experiment re-validates.\n\n"
+      "    e = dronetwin.load_experiment('config/experiments/pid_tuned_pulse.yaml')\n"
+      "    e.seed = 3\n"
+      "    s = dronetwin.run_experiment(e, 'out/pid_seed3')\n"
+      "    s.closed_loop.rmse             # [x, y, z, yaw]")
+      .def_readwrite("name", &Experiment::name)
+      .def_readwrite("description", &Experiment::description)
+      .def_readonly("source", &Experiment::source)
+      .def_readwrite("model_path", &Experiment::model_path)
+      .def_readwrite("seed", &Experiment::seed)
+      .def_readwrite("duration_s", &Experiment::duration_s)
+      .def_readwrite("physics_dt_s", &Experiment::physics_dt_s)
+      .def_readwrite("integrator", &Experiment::integrator)
+      .def_readwrite("motor_dynamics", &Experiment::motor_dynamics)
+      .def_readwrite("noise", &Experiment::noise)
+      .def_property(
+          "wind_m_s", [](const Experiment& e) { return e.wind_m_s; },
+          [](Experiment& e, py::handle w) { e.wind_m_s = to_fixed<3>(w, "Experiment.wind_m_s"); })
+      .def_property(
+          "gravity_m_s2", [](const Experiment& e) { return e.gravity_m_s2; },
+          [](Experiment& e, py::handle g) { e.gravity_m_s2 = to_fixed<3>(g, "Experiment.gravity_m_s2"); })
+      .def_readwrite("disturbances", &Experiment::disturbances)
+      .def_readwrite("ground", &Experiment::ground)
+      .def_readwrite("log", &Experiment::log)
+      .def_property_readonly("input_type", [](const Experiment& e) { return std::string(input_type_name(e.input)); })
+      .def_property(
+          "controller_path", [](Experiment& e) { return controller_input(e).controller_path; },
+          [](Experiment& e, const std::string& p) { controller_input(e).controller_path = p; },
+          "The controller file of a `type: controller` input (ValueError for other inputs).")
+      .def_property(
+          "control_rate_hz", [](Experiment& e) { return controller_input(e).control_rate_hz; },
+          [](Experiment& e, double r) { controller_input(e).control_rate_hz = r; })
+      .def_property_readonly(
+          "reference",
+          [](Experiment& e) { return std::shared_ptr<Reference>(controller_input(e).reference->clone()); },
+          "A copy of the reference of a controller input.")
+      .def("sim_config", &Experiment::sim_config, "The Simulator settings (validated).")
+      .def("num_steps", &Experiment::num_steps)
+      .def("validate", [](const Experiment& e) { validate(e); },
+           "Re-checks the editable fields; ValueError naming the field.");
+
+  m.def("load_experiment", &load_experiment, py::arg("path"),
+        "Reads and checks an experiment file; ValueError '<path>: <field>: <what>' otherwise.");
+  m.def("parse_experiment", &parse_experiment, py::arg("yaml_text"), py::arg("source_name"),
+        "An experiment from YAML text; relative paths resolve against source_name's directory.");
+
+  py::class_<ClosedLoopSummary>(m, "ClosedLoopSummary", "What a closed-loop run adds to its summary.")
+      .def_readonly("controller_name", &ClosedLoopSummary::controller_name)
+      .def_readonly("controller_path", &ClosedLoopSummary::controller_path)
+      .def_readonly("allocation", &ClosedLoopSummary::allocation)
+      .def_readonly("reference_type", &ClosedLoopSummary::reference_type)
+      .def_readonly("reference", &ClosedLoopSummary::reference)
+      .def_readonly("control_rate_hz", &ClosedLoopSummary::control_rate_hz)
+      .def_property_readonly("rmse", [](const ClosedLoopSummary& s) { return Vec4(s.rmse); },
+                             "RMSE [x, y, z, yaw] (m, m, m, rad) of the true state in the window.")
+      .def_readonly("rmse_window_s", &ClosedLoopSummary::rmse_window_s)
+      .def_readonly("rmse_samples", &ClosedLoopSummary::rmse_samples)
+      .def_readonly("control_updates", &ClosedLoopSummary::control_updates)
+      .def_readonly("saturated_updates", &ClosedLoopSummary::saturated_updates)
+      .def_readonly("saturated_fraction", &ClosedLoopSummary::saturated_fraction);
+
+  py::class_<RunSummary>(m, "RunSummary", "The outcome of run_experiment (summary.json as an object).")
+      .def_readonly("experiment_name", &RunSummary::experiment_name)
+      .def_readonly("model_name", &RunSummary::model_name)
+      .def_readonly("seed", &RunSummary::seed)
+      .def_readonly("dt_s", &RunSummary::dt_s)
+      .def_readonly("steps", &RunSummary::steps)
+      .def_readonly("steps_requested", &RunSummary::steps_requested)
+      .def_readonly("duration_s", &RunSummary::duration_s)
+      .def_readonly("status", &RunSummary::status)
+      .def_readonly("failure_message", &RunSummary::failure_message)
+      .def_property_readonly("ok", &RunSummary::ok)
+      .def_property_readonly("final_state", [](const RunSummary& s) { return StateVector(s.final_state); })
+      .def_readonly("min_z_m", &RunSummary::min_z_m)
+      .def_readonly("max_z_m", &RunSummary::max_z_m)
+      .def_readonly("max_speed_m_s", &RunSummary::max_speed_m_s)
+      .def_readonly("max_tilt_rad", &RunSummary::max_tilt_rad)
+      .def_readonly("crashed", &RunSummary::crashed)
+      .def_readonly("closed_loop", &RunSummary::closed_loop, "ClosedLoopSummary or None.")
+      .def_readonly("log_rows", &RunSummary::log_rows)
+      .def_readonly("wall_clock_s", &RunSummary::wall_clock_s)
+      .def_readonly("real_time_factor", &RunSummary::real_time_factor)
+      .def_readonly("log_path", &RunSummary::log_path)
+      .def_readonly("summary_path", &RunSummary::summary_path)
+      .def("to_json", &summary_to_json, "The text of summary.json.")
+      .def("__repr__", [](const RunSummary& s) {
+        return "RunSummary('" + s.experiment_name + "', status=" + std::string(status_name(s.status)) +
+               ", steps=" + std::to_string(s.steps) + ")";
+      });
+
+  m.def("run_experiment", &run, py::arg("experiment"), py::arg("out_dir"), py::arg("model") = nullptr,
+        "Runs an Experiment exactly as `dronetwin run` does, writing out_dir/log.csv and\n"
+        "out_dir/summary.json; returns the RunSummary. `model` (optional) replaces the model file\n"
+        "(sweeps load it once). The GIL is released during the run.");
+  m.def(
+      "run_experiment_file",
+      [](const std::string& path, const std::string& out_dir) { return run(load_experiment(path), out_dir, nullptr); },
+      py::arg("path"), py::arg("out_dir"), "load_experiment(path) then run_experiment.");
+
+  m.def(
+      "read_log_table",
+      [](const std::string& path) {
+        LogTable t = [&] {
+          py::gil_scoped_release release;
+          return read_csv_log(path);
+        }();
+        const auto rows = static_cast<py::ssize_t>(t.rows());
+        const auto cols = static_cast<py::ssize_t>(t.columns.size());
+        py::array_t<double> a({rows, cols});
+        std::copy(t.values.begin(), t.values.end(), a.mutable_data());
+        return py::make_tuple(t.columns, a);
+      },
+      py::arg("path"),
+      "Reads a run log (CSV) into (column names, 2-D float64 array). ValueError naming the file,\n"
+      "line and column for a malformed file. Prefer dronetwin.read_log (dict or DataFrame).");
+  m.def("log_column_names",
+        [](int num_rotors, bool measured, bool wrench_breakdown, bool controller) {
+          return log_column_names(LogLayout{num_rotors, measured, wrench_breakdown, controller});
+        },
+        py::arg("num_rotors") = 4, py::arg("measured") = true, py::arg("wrench_breakdown") = false,
+        py::arg("controller") = false, "The column names of a run log with these groups.");
+
+  m.def(
+      "load_controller",
+      [](const std::string& path, const std::shared_ptr<VehicleModel>& model, double rate) {
+        if (!model) throw py::value_error("load_controller: model must be a VehicleModel, got None");
+        return load_controller(path, model, rate);
+      },
+      py::arg("path"), py::arg("model"), py::arg("control_rate_hz"),
+      "Builds the controller a controller file describes (docs/controllers.md) for `model`.");
+  m.def(
+      "controller_from_yaml",
+      [](const std::string& text, const std::shared_ptr<VehicleModel>& model, double rate,
+         const std::string& source) {
+        if (!model) throw py::value_error("controller_from_yaml: model must be a VehicleModel, got None");
+        return make_controller_from_yaml(text, source, model, rate);
+      },
+      py::arg("yaml_text"), py::arg("model"), py::arg("control_rate_hz"),
+      py::arg("source_name") = "<string>", "A controller from controller-file YAML text.");
+}
+
+}  // namespace dronetwin::python

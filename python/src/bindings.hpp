@@ -1,0 +1,58 @@
+#pragma once
+// Shared helpers of the pybind11 extension dronetwin._core: strict conversion of Python inputs to
+// the fixed-size Eigen types of the core (wrong shapes and dtypes are refused with a message that
+// says what was expected, instead of being converted silently), and numpy views onto C++ memory.
+//
+// One bind_*.cpp per layer (model, sim, control, io), each registering its classes in `m`.
+
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <string>
+
+#include "dronetwin/core/types.hpp"
+
+namespace dronetwin::python {
+
+namespace py = pybind11;
+
+void bind_model(py::module_& m);
+void bind_sim(py::module_& m);
+void bind_control(py::module_& m);
+void bind_io(py::module_& m);
+
+/// "a float64 array of shape (3,)", "a list of length 2", "a str", for messages.
+std::string describe_object(py::handle obj);
+
+/// Reads a 1-D float vector of exactly `n` numbers from `obj` into `out`. A numpy array must be
+/// float64 and 1-D (TypeError / ValueError otherwise: no silent dtype conversion); a list or tuple
+/// of numbers is accepted. `what` names the argument in messages.
+void read_vector(py::handle obj, int n, const char* what, double* out);
+
+template <int N>
+Eigen::Matrix<double, N, 1> to_fixed(py::handle obj, const char* what) {
+  Eigen::Matrix<double, N, 1> v;
+  read_vector(obj, N, what, v.data());
+  return v;
+}
+
+/// A rotor vector of exactly `n` entries (n = the model's rotor count).
+RotorVector to_rotor_vector(py::handle obj, int n, const char* what);
+
+/// A 1-D float64 numpy array of `n` numbers at `data`, without copying. `owner` is kept alive as
+/// long as the array (its base), so the view can never dangle.
+py::array_t<double> view(double* data, py::ssize_t n, py::handle owner, bool writable);
+py::array_t<double> view(const double* data, py::ssize_t n, py::handle owner);
+
+/// A copy of a vector as a new numpy array (for computed values).
+template <class Vector>
+py::array_t<double> copy_of(const Vector& v) {
+  py::array_t<double> a(static_cast<py::ssize_t>(v.size()));
+  double* out = a.mutable_data();
+  for (Eigen::Index i = 0; i < v.size(); ++i) out[i] = v[i];
+  return a;
+}
+
+}  // namespace dronetwin::python

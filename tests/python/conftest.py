@@ -1,0 +1,31 @@
+"""Shared fixtures of the Python test suite (run by CTest; see tests/CMakeLists.txt).
+
+CTest sets PYTHONPATH to <build>/python (the package with its compiled extension),
+DRONETWIN_SOURCE_DIR to the source tree and DRONETWIN_CLI to the built `dronetwin` command.
+"""
+
+import os
+
+import pytest
+
+import dronetwin as dt
+
+SOURCE_DIR = os.environ.get("DRONETWIN_SOURCE_DIR") or os.path.abspath(
+    os.path.join(os.path.dirname(__file__), "..", ".."))
+
+
+def source_path(*parts):
+    return os.path.join(SOURCE_DIR, *parts)
+
+
+@pytest.fixture(scope="session")
+def qdrone2():
+    return dt.load_model(source_path("models", "qdrone2.yaml"))
+
+
+@pytest.fixture(scope="session")
+def cli():
+    path = os.environ.get("DRONETWIN_CLI")
+    if not path or not os.path.exists(path):
+        pytest.skip("DRONETWIN_CLI not set (run through CTest)")
+    return path

@@ -1,0 +1,171 @@
+"""Controllers from Python: Python subclasses of ControllerBase fly the C++ simulator; the C++
+controllers and references are usable directly."""
+
+import numpy as np
+import pytest
+
+import dronetwin as dt
+from conftest import source_path
+
+G = 9.81
+
+
+class PythonGeometric(dt.ControllerBase):
+    """A position + attitude controller written in Python (the SE(3) law of thesis Eq. 3.27-3.28
+    with gravity compensation; gains chosen for a ~1 s position response on the QDrone2)."""
+
+    def __init__(self, model, kp=6.0, kd=4.5, kr=6.0, kw=1.2):
+        super().__init__(model)
+        self.m = model.mass_kg
+        self.kp, self.kd, self.kr, self.kw = kp, kd, kr, kw
+        self.calls = 0
+
+    def name(self):
+        return "python_geometric"
+
+    def calculate_u(self, inp):
+        self.calls += 1
+        x, ref = inp.state, inp.reference
+        p, v = x[0:3], x[3:6]
+        qw, qx, qy, qz = x[6:10] / np.linalg.norm(x[6:10])
+        R = np.array([
+            [1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy)],
+            [2 * (qx * qy + qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qw * qx)],
+            [2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy)]])
+        F = self.m * (self.kp * (ref.position_m - p) + self.kd * (ref.velocity_m_s - v)
+                      + ref.acceleration_m_s2 + np.array([0.0, 0.0, G]))
+        b3 = F / np.linalg.norm(F)
+        b1d = np.array([np.cos(ref.yaw_rad), np.sin(ref.yaw_rad), 0.0])
+        b2 = np.cross(b3, b1d)
+        b2 /= np.linalg.norm(b2)
+        Rd = np.column_stack([np.cross(b2, b3), b2, b3])
+        E = 0.5 * (Rd.T @ R - R.T @ Rd)
+        e_R = np.array([E[2, 1], E[0, 2], E[1, 0]])
+        w = x[10:13]
+        J = self.model.inertia_kgm2
+        M = -self.kr * e_R - self.kw * w + np.cross(w, J @ w)
+        return np.array([F @ R[:, 2], M[0], M[1], M[2]])
+
+
+class HoverSpeeds(dt.ControllerBase):
+    """Commands the rotors directly (calculate_actuator_cmd only)."""
+
+    def calculate_actuator_cmd(self, inp):
+        return self.model.hover_speeds_rad_s()
+
+
+def start_hovering(model, z=1.0, config=None):
+    sim = dt.Simulator(model, config or dt.SimConfig())
+    sim.reset(dt.Simulator.hover_state([0.0, 0.0, z]), model.hover_speeds_rad_s())
+    return sim
+
+
+def test_python_controller_tracks_a_setpoint(qdrone2):
+    sim = start_hovering(qdrone2)
+    ctrl = PythonGeometric(qdrone2)
+    target = np.array([0.5, -0.3, 1.5])
+    loop = dt.ClosedLoop(sim, ctrl, dt.SetpointReference(target), 200.0)
+    log = loop.record(8.0, every_n_steps=10)
+    assert log["status"] == dt.StepStatus.OK
+    assert np.linalg.norm(sim.state[:3] - target) < 0.02
+    assert np.abs(sim.state[3:6]).max() < 0.02
+    # It ran at the configured control rate: one call at t = 0 and one per 5 ms.
+    assert ctrl.calls == 8.0 * 200.0 + 1
+    assert loop.control_updates == ctrl.calls
+    assert ctrl.name() == "python_geometric"
+
+
+def test_python_controller_hovers_under_noise(qdrone2):
+    sim = start_hovering(qdrone2, 1.0, dt.SimConfig(noise=True, seed=5))
+    loop = dt.ClosedLoop(sim, PythonGeometric(qdrone2), dt.SetpointReference([0.0, 0.0, 1.0]), 100.0)
+    log = loop.record(5.0, every_n_steps=10)
+    assert dt.rmse(log, window_s=(1.0, 5.0))[:3].max() < 0.05
+
+
+def test_rotor_speed_level_python_controller(qdrone2):
+    ctrl = HoverSpeeds(qdrone2)
+    assert ctrl.level() == dt.ControlLevel.ROTOR_SPEED
+    assert ctrl.name() == "HoverSpeeds"
+    config = dt.SimConfig()
+    config.disturbances.ground_effect = False
+    sim = start_hovering(qdrone2, 3.0, config)
+    loop = dt.ClosedLoop(sim, ctrl, dt.SetpointReference([0.0, 0.0, 3.0]), 100.0)
+    loop.run(2.0)
+    assert abs(sim.state[2] - 3.0) < 1e-6
+
+
+class ReturnsNaN(dt.ControllerBase):
+    def calculate_u(self, inp):
+        return [float("nan"), 0.0, 0.0, 0.0]
+
+
+class WrongLength(dt.ControllerBase):
+    def calculate_u(self, inp):
+        return [1.0, 0.0]
+
+
+class Raises(dt.ControllerBase):
+    def calculate_u(self, inp):
+        raise KeyError("inside the controller")
+
+
+def test_bad_python_controllers_are_reported_not_flown(qdrone2):
+    ref = dt.SetpointReference([0.0, 0.0, 1.0])
+    sim = start_hovering(qdrone2)
+    with pytest.raises(RuntimeError, match="ReturnsNaN.*non-finite"):
+        dt.ClosedLoop(sim, ReturnsNaN(qdrone2), ref, 100.0).step()
+    with pytest.raises(ValueError, match=r"calculate_u result: expected .*shape \(4,\).*length 2"):
+        dt.ClosedLoop(sim, WrongLength(qdrone2), ref, 100.0).step()
+    with pytest.raises(KeyError, match="inside the controller"):
+        dt.ClosedLoop(sim, Raises(qdrone2), ref, 100.0).run(1.0)
+    assert np.all(np.isfinite(sim.state))
+
+
+def test_a_controller_without_an_implementation_says_so(qdrone2):
+    sim = start_hovering(qdrone2)
+    with pytest.raises(Exception, match="calculate_u"):
+        dt.ClosedLoop(sim, dt.ControllerBase(qdrone2), dt.SetpointReference([0, 0, 1]), 100.0).step()
+
+
+def test_python_reference_subclass(qdrone2):
+    class Climb(dt.Reference):
+        def at(self, t):
+            return dt.ReferencePoint([0.0, 0.0, 1.0 + 0.1 * t], velocity_m_s=[0.0, 0.0, 0.1])
+
+        def describe(self):
+            return "climb at 0.1 m/s"
+
+    sim = start_hovering(qdrone2)
+    loop = dt.ClosedLoop(sim, PythonGeometric(qdrone2), Climb(), 100.0)
+    log = loop.record(6.0, every_n_steps=100)
+    assert log["reference"][-1, 2] == pytest.approx(1.6)
+    assert abs(sim.state[2] - 1.6) < 0.02
+
+
+def test_pid_built_in_python_equals_pid_from_file(qdrone2):
+    from_file = dt.load_controller(source_path("config", "controllers", "pid_tuned.yaml"), qdrone2, 1000.0)
+    assert isinstance(from_file, dt.CascadedPid)
+    built = dt.CascadedPid(qdrone2, from_file.gains, from_file.options, 1e-3)
+    logs = []
+    for ctrl in (from_file, built):
+        sim = start_hovering(qdrone2, 1.0, dt.SimConfig(noise=True, seed=9))
+        logs.append(dt.ClosedLoop(sim, ctrl, dt.PiecewiseConstantReference.thesis_pulse(), 1000.0).record(3.0))
+    for key in ("state", "measured_state", "u", "rotor_speed_reference_rad_s"):
+        assert np.array_equal(logs[0][key], logs[1][key]), key
+
+
+def test_thesis_references_follow_their_equations():
+    eight = dt.FigureEightReference()
+    t = 7.5
+    p = eight.at(t).position_m
+    # Eq. 3.25
+    assert p[0] == pytest.approx(0.8 * np.sin(2 * np.pi * t / 60))
+    assert p[1] == pytest.approx(0.6 * np.sin(4 * np.pi * t / 60))
+    assert p[2] == pytest.approx(1.2)
+    circle = dt.CircleReference()
+    assert np.linalg.norm(circle.at(1.3).position_m[:2] - [0.0, 0.0]) == pytest.approx(2.0)
+
+
+def test_unknown_controller_type_is_named(qdrone2):
+    with pytest.raises(ValueError, match="type"):
+        dt.controller_from_yaml("type: lqr\n", qdrone2, 100.0, "mine.yaml")
