@@ -19,3 +19,14 @@ execute_process(COMMAND ${CONSUMER_BUILD}/consumer ${MODEL} RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "the consumer program failed (${rc})")
 endif()
+# The installed Python package imports from the prefix alone and loads a model.
+if(PYTHON AND PYTHON_DIR)
+  execute_process(
+    COMMAND ${CMAKE_COMMAND} -E env PYTHONPATH=${PREFIX}/${PYTHON_DIR} PYTHONDONTWRITEBYTECODE=1
+            ${PYTHON} -c "import dronetwin, sys; assert dronetwin.__file__.startswith(sys.argv[1]), dronetwin.__file__; m = dronetwin.load_model(sys.argv[2]); s = dronetwin.Simulator(m); s.reset(dronetwin.Simulator.hover_state([0, 0, 1]), m.hover_speeds_rad_s()); assert s.step(100).ok; print('installed python package OK:', dronetwin.__file__)"
+            ${PREFIX} ${MODEL}
+    RESULT_VARIABLE rc)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "the installed Python package failed (${rc})")
+  endif()
+endif()

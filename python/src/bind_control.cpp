@@ -301,7 +301,7 @@ void bind_control(py::module_& m) {
         return std::const_pointer_cast<VehicleModel>(c.model_ptr());
       })
       .def_property("allocation", &ControllerBase::allocation, &ControllerBase::set_allocation)
-      .def_property_readonly("last_allocation", &ControllerBase::last_allocation);
+      .def_property_readonly("last_allocation", [](const ControllerBase& c) { return c.last_allocation(); });
 
   py::enum_<PidYawLoop>(m, "PidYawLoop")
       .value("THESIS", PidYawLoop::kThesis, "As printed (Eq. 3.19).")
@@ -337,8 +337,8 @@ void bind_control(py::module_& m) {
            }),
            py::arg("model"), py::arg("gains"), py::arg("options") = PidOptions{},
            py::arg("control_period_s") = 1.0e-3, py::arg("allocation") = AllocationMethod::kExact)
-      .def_property_readonly("gains", &CascadedPid::gains)
-      .def_property_readonly("options", &CascadedPid::options)
+      .def_property_readonly("gains", [](const CascadedPid& c) { return c.gains(); }, "A copy of the gains.")
+      .def_property_readonly("options", [](const CascadedPid& c) { return c.options(); }, "A copy of the options.")
       .def_property_readonly("integral", [](const CascadedPid& c) { return Vec4(c.integral()); });
 
   py::class_<Se3Gains>(m, "Se3Gains", "Gains of the SE(3) controller (thesis Eq. 3.29).")
@@ -363,8 +363,8 @@ void bind_control(py::module_& m) {
                        const Se3Options& o, AllocationMethod a) { return new Se3Controller(model, g, o, a); }),
            py::arg("model"), py::arg("gains"), py::arg("options") = Se3Options{},
            py::arg("allocation") = AllocationMethod::kExact)
-      .def_property_readonly("gains", &Se3Controller::gains)
-      .def_property_readonly("options", &Se3Controller::options);
+      .def_property_readonly("gains", [](const Se3Controller& c) { return c.gains(); }, "A copy of the gains.")
+      .def_property_readonly("options", [](const Se3Controller& c) { return c.options(); }, "A copy of the options.");
 
   py::class_<ClosedLoop>(
       m, "ClosedLoop",
@@ -393,7 +393,7 @@ void bind_control(py::module_& m) {
       .def_property("real_time", &ClosedLoop::real_time, &ClosedLoop::set_real_time)
       .def_property_readonly("achieved_real_time_factor", &ClosedLoop::achieved_real_time_factor)
       .def_property_readonly("steps_per_control", &ClosedLoop::steps_per_control)
-      .def_property_readonly("last_input", &ClosedLoop::last_input)
+      .def_property_readonly("last_input", [](const ClosedLoop& l) { return l.last_input(); })
       .def_property_readonly("last_command", [](const ClosedLoop& l) { return Vec4(l.last_command()); })
       .def_property_readonly("last_rotor_command",
                              [](const ClosedLoop& l) { return copy_of(l.last_rotor_command()); })
