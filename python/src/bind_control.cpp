@@ -196,8 +196,8 @@ void bind_control(py::module_& m) {
       "A trajectory to track: at(t) gives the ReferencePoint at time t (s). Subclass it in Python\n"
       "by overriding `at(self, t_s)` (and optionally `describe(self)`).")
       .def(py::init<>())
-      .def("at", &Reference::at, py::arg("t_s"))
-      .def("describe", &Reference::describe)
+      .def("at", &Reference::at, py::arg("t_s"), "The ReferencePoint at time t_s (s).")
+      .def("describe", &Reference::describe, "One line saying what the reference is.")
       .def("__repr__", [](const Reference& r) { return "<" + r.describe() + ">"; });
 
   py::class_<SetpointReference, Reference, std::shared_ptr<SetpointReference>>(
@@ -290,8 +290,11 @@ void bind_control(py::module_& m) {
              return new PyController(model, allocation);
            }),
            py::arg("model"), py::arg("allocation") = AllocationMethod::kExact)
-      .def("name", [](const ControllerBase& c) { return std::string(c.name()); })
-      .def("level", &ControllerBase::level)
+      .def("name", [](const ControllerBase& c) { return std::string(c.name()); },
+           "The controller's name in logs and messages (Python subclasses: the class name unless "
+           "overridden).")
+      .def("level", &ControllerBase::level,
+           "ControlLevel: GENERALIZED_FORCE (calculate_u) or ROTOR_SPEED (calculate_actuator_cmd).")
       .def("reset", &ControllerBase::reset, "Clears internal memory before a new run.")
       .def("calculate_u", &ControllerBase::calculate_u, py::arg("inp"),
            "Generalized force [T, tau_x, tau_y, tau_z] for `inp` (checked).")

@@ -72,7 +72,8 @@ void bind_io(py::module_& m) {
           [](Experiment& e) { return std::shared_ptr<Reference>(controller_input(e).reference->clone()); },
           "A copy of the reference of a controller input.")
       .def("sim_config", &Experiment::sim_config, "The Simulator settings (validated).")
-      .def("num_steps", &Experiment::num_steps)
+      .def("num_steps", &Experiment::num_steps,
+           "Physics steps of the run: duration_s / physics_dt_s rounded up.")
       .def("validate", [](const Experiment& e) { validate(e); },
            "Re-checks the editable fields; ValueError naming the field.");
 

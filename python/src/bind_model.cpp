@@ -164,7 +164,8 @@ void bind_model(py::module_& m) {
            },
            py::arg("u"), py::arg("method") = AllocationMethod::kExact,
            "Rotor speeds for the generalized force u, with saturation information.")
-      .def("to_yaml", [](const VehicleModel& v) { return vehicle_spec_to_yaml(v.spec()); })
+      .def("to_yaml", [](const VehicleModel& v) { return vehicle_spec_to_yaml(v.spec()); },
+           "The model's spec as model-file YAML text.")
       .def("__repr__", [](const VehicleModel& v) {
         return "VehicleModel('" + v.name() + "', rotors=" + std::to_string(v.num_rotors()) +
                ", mass_kg=" + std::to_string(v.mass_kg()) + ")";

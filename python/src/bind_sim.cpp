@@ -302,8 +302,10 @@ void bind_sim(py::module_& m) {
           "set_wind",
           [](Simulator& s, py::handle w) { s.set_wind(to_fixed<3>(w, "set_wind")); },
           py::arg("wind_W_m_s"), "Air velocity, world frame, m/s (from the next step on).")
-      .def("set_disturbances", &Simulator::set_disturbances, py::arg("switches"))
-      .def("set_noise_enabled", &Simulator::set_noise_enabled, py::arg("enabled"))
+      .def("set_disturbances", &Simulator::set_disturbances, py::arg("switches"),
+           "Switches disturbance terms on or off from the next step on (DisturbanceSwitches).")
+      .def("set_noise_enabled", &Simulator::set_noise_enabled, py::arg("enabled"),
+           "Turns the OU measurement noise on or off (measured_state is refreshed at once).")
       .def("refresh_measured_state", &Simulator::refresh_measured_state,
            "Recomputes measured_state after writing `state` directly.")
       .def("copy", [](const Simulator& s) { return Simulator(s); },

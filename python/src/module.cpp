@@ -11,20 +11,27 @@
 
 namespace dronetwin::python {
 
+namespace {
+std::string with_article(const std::string& noun) {
+  const bool vowel = !noun.empty() && std::string("aeiouAEIOU").find(noun[0]) != std::string::npos;
+  return (vowel ? "an " : "a ") + noun;
+}
+}  // namespace
+
 std::string describe_object(py::handle obj) {
   if (py::isinstance<py::array>(obj)) {
     const auto a = py::reinterpret_borrow<py::array>(obj);
     std::ostringstream s;
-    s << "a " << py::str(a.dtype()).cast<std::string>() << " array of shape (";
+    s << with_article(py::str(a.dtype()).cast<std::string>()) << " array of shape (";
     for (py::ssize_t i = 0; i < a.ndim(); ++i) s << a.shape(i) << (a.ndim() == 1 || i + 1 < a.ndim() ? "," : "");
     s << ")";
     return s.str();
   }
   if (py::isinstance<py::list>(obj) || py::isinstance<py::tuple>(obj)) {
-    return std::string("a ") + py::str(obj.get_type().attr("__name__")).cast<std::string>() +
+    return with_article(py::str(obj.get_type().attr("__name__")).cast<std::string>()) +
            " of length " + std::to_string(py::len(obj));
   }
-  return std::string("a ") + py::str(obj.get_type().attr("__name__")).cast<std::string>();
+  return with_article(py::str(obj.get_type().attr("__name__")).cast<std::string>());
 }
 
 void read_vector(py::handle obj, int n, const char* what, double* out) {

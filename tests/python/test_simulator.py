@@ -167,7 +167,7 @@ def test_state_derivative_at_hover_is_zero(qdrone2):
 
 def test_bad_inputs_raise_clear_errors(qdrone2):
     sim = hovering(qdrone2)
-    with pytest.raises(TypeError, match=r"float64 array of shape \(4,\).*int64"):
+    with pytest.raises(TypeError, match=r"float64 array of shape \(4,\).*an int64 array"):
         sim.set_rotor_speed_reference(np.array([1, 2, 3, 4]))
     with pytest.raises(ValueError, match=r"shape \(4,\).*length 3"):
         sim.set_rotor_speed_reference([1.0, 2.0, 3.0])
