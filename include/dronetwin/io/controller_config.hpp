@@ -21,16 +21,17 @@
 #include <string_view>
 
 #include "dronetwin/control/controller_base.hpp"
+#include "dronetwin/control/nmpc.hpp"
 #include "dronetwin/control/pid.hpp"
 #include "dronetwin/control/se3.hpp"
 #include "dronetwin/model/allocation.hpp"
 
 namespace dronetwin {
 
-enum class ControllerType { kPid, kSe3 };
+enum class ControllerType { kPid, kSe3, kNmpc };
 
 constexpr std::string_view controller_type_name(ControllerType t) {
-  return t == ControllerType::kPid ? "pid" : "se3";
+  return t == ControllerType::kPid ? "pid" : (t == ControllerType::kSe3 ? "se3" : "nmpc");
 }
 
 /// A parsed controller file. Only the members of `type` are meaningful.
@@ -46,6 +47,8 @@ struct ControllerConfig {
   PidOptions pid_options;
   Se3Gains se3_gains;
   Se3Options se3_options;
+  /// type nmpc: everything but the mass (nmpc_options.se3.mass_kg is set by make_controller).
+  NmpcOptions nmpc_options;
 };
 
 /// Reads and checks a controller file. Throws InvalidArgument "<path>: <field>: <what>".
