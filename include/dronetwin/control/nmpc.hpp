@@ -4,23 +4,26 @@
 //
 // Every `step_s` (10 ms) of calls it solves, by single shooting,
 //   min over u_0..u_{N-1}   sum_{k=1..N} |x_k - x_ref,k|^2_Q  +  sum_{k=0..N-1} |u_k - u_ref,k|^2_R
-//   s.t. x_{k+1} = RK4(Eq. 3.23, x_k, u_k, step_s),  x_0 = measured state,
+//                           + sum_k w_tilt^2 (cos(max_tilt) - cos(tilt_k))_+^2
+//   s.t. x_{k+1} = RK4(Eq. 3.23 [+ d], x_k, u_k, step_s),  x_0 = measured state,
 //        thrust_N[0] <= |F_k| <= thrust_N[1],  tilt(F_k) <= max_tilt_rad,  |M_k| <= max_moment,
 // with u = [F_W, M_B] (nmpc_model.hpp), Q and R of Eq. 3.24 (diagonal), x_ref from the reference
-// (level attitude at the reference yaw, zero rates) and u_ref = [m (a_ref + g e3), 0] (the
+// (level attitude at the reference yaw, zero rates) and u_ref = [m (a_ref + g e3 - d), 0] (the
 // feed-forward input: R penalises deviations from it, not the weight-carrying thrust itself).
-// Inputs may be move-blocked (`input_blocks`: consecutive steps sharing one value). Jacobians:
+// Inputs are move-blocked (`input_blocks`: consecutive steps sharing one value). Jacobians:
 // per-step automatic differentiation of the templated RK4 step, chained exactly. The solve is
-// warm-started from the previous plan shifted by one step.
+// warm-started from the previous plan shifted by one step. d is an optional disturbance
+// acceleration estimated from the last plan's velocity error (offset-free MPC; off by default).
 //
 // Between solves, and at every call, the inner loop applies the SE(3) attitude law
-// (se3_attitude_moment) to the plan's current force F: b3d = F / |F|, f = F . R e3. The
-// controller must therefore be called at the inner-loop rate (e.g. 1 kHz); `call_rate_hz` must
-// be a whole multiple of 1 / step_s, and solves happen on calls 0, s, 2s, ... (s = call_rate_hz
-// * step_s) by count, never by wall clock.
+// (se3_attitude_moment) to the plan: thrust direction b3d = the predicted body z axis at the end
+// of the current interval, clipped to the tilt cone; collective thrust f = b3d . F (Eq. 3.23's
+// thrust there), clipped to thrust_N[1]. The controller must therefore be called at the
+// inner-loop rate (e.g. 1 kHz); `call_rate_hz` must be a whole multiple of 1 / step_s, and
+// solves happen on calls 0, s, 2s, ... (s = call_rate_hz * step_s) by count, never by wall clock.
 //
 //   NmpcOptions o;                                   // Eq. 3.24 weights, N = 100, 10 ms
-//   o.input_blocks = {1, 1, 2, 4, 8, 12, 16, 24, 32};
+//   o.input_blocks = {1, 2, 4, 8, 16, 32, 37};
 //   NmpcController nmpc(model, o, /*call_rate_hz=*/1000.0);
 //   ClosedLoop loop(sim, nmpc, FigureEightReference{}, 1000.0);
 //   loop.run(60.0);
@@ -28,8 +31,8 @@
 //
 // Failures: a solve that ends in failure, returns a non-finite plan, or is rejected by the
 // failure-injection hook does not fly. The controller then follows the last good plan, shifted
-// by the solves since it was made, while it lasts (N steps), then SE(3) position control with
-// the `fallback_*` gains; diagnostics() and last_solve() report it. A solve that stops at the
+// by the solves since it was made, while it lasts (N - 1 intervals), then SE(3) position control
+// with the position gains of `se3`; diagnostics() and last_solve() report it. A solve that stops at the
 // iteration cap or the time budget keeps its best iterate (Ceres never returns a worse one).
 //
 // Trap: with a finite max_solve_time_s a run is reproducible only as long as the budget never
