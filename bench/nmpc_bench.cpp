@@ -78,7 +78,7 @@ void BM_NmpcFigureEightN20(benchmark::State& s) { run(s, 20); }
 
 }  // namespace
 
-BENCHMARK(BM_NmpcFigureEightN100)->Unit(benchmark::kMillisecond)->MinTime(2.0);
-BENCHMARK(BM_NmpcFigureEightN20)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK(BM_NmpcFigureEightN100)->Unit(benchmark::kMillisecond)->MinTime(4.0);
+BENCHMARK(BM_NmpcFigureEightN20)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
 BENCHMARK_MAIN();
