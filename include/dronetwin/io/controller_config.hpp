@@ -12,6 +12,9 @@
 // modification off); the gains section is required in full. The mass used by the controllers is
 // the model's unless the file sets mass_kg.
 //
+// type nmpc builds an NmpcController (docs/controllers.md section 8): the control rate is the rate
+// it is called at (its inner loop); horizon.step_s must be a whole number of those periods.
+//
 // Trap: the control rate is part of the PID (its integral is a sum times the period); build the
 // controller with the rate the ClosedLoop will run at.
 
