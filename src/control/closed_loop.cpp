@@ -24,6 +24,7 @@ ClosedLoop::ClosedLoop(Simulator& sim, ControllerBase& controller, const Referen
           controller.name(), "' was built for ", controller.model().num_rotors(),
           " rotors but the simulator's model has ", sim.model().num_rotors());
   w_cmd_ = sim.rotor_speed_reference_rad_s();
+  controller_.set_reference_preview(reference_);  // look-ahead controllers (NMPC) keep a copy
 }
 
 void ClosedLoop::control() {

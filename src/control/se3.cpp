@@ -30,6 +30,27 @@ bool normalized(const Vec3& v, Vec3& out, double tiny) {
 
 }  // namespace
 
+Vec3 se3_attitude_moment(const Mat3& R, const Vec3& w_B, const Vec3& b3d, double yaw_rad,
+                         const Vec3& attitude_p, const Vec3& attitude_d, const Mat3& J) {
+  const Vec3 e3 = Vec3::UnitZ();
+  // ---- desired attitude R_des = [b2d x b3d, b2d, b3d] (Eq. 3.28) ------------------------------
+  const Vec3 b1d(std::cos(yaw_rad), std::sin(yaw_rad), 0.0);
+  Vec3 b2d = Vec3::UnitY();
+  // b3d parallel to b1d (a level thrust direction along the heading) leaves b2d undefined; fall
+  // back on the current body x axis, then on e3, so R_des stays a rotation.
+  if (!normalized(b3d.cross(b1d), b2d, 1e-6) && !normalized(b3d.cross(R.col(0)), b2d, 1e-6))
+    normalized(b3d.cross(e3), b2d, 0.0);
+  Mat3 R_des;
+  R_des.col(0) = b2d.cross(b3d);
+  R_des.col(1) = b2d;
+  R_des.col(2) = b3d;
+
+  // ---- attitude errors and moment (Eq. 3.27, w_des = 0) ---------------------------------------
+  const Vec3 e_R = 0.5 * vee(R_des.transpose() * R - R.transpose() * R_des);
+  const Vec3& e_w = w_B;  // w - R^T R_des w_des with w_des = 0 (Eq. 3.28)
+  return -attitude_p.cwiseProduct(e_R) - attitude_d.cwiseProduct(e_w) + w_B.cross(J * w_B);
+}
+
 Se3Gains Se3Gains::thesis() {
   // Eq. 3.29.
   Se3Gains g;
@@ -111,24 +132,9 @@ GeneralizedForce Se3Controller::do_calculate_u(const ControlInput& in) {
   double f = F.dot(R * e3);
   if (options_.nonnegative_thrust) f = std::max(f, 0.0);
 
-  // ---- desired attitude R_des = [b2d x b3d, b2d, b3d] (Eq. 3.28) ------------------------------
-  const Vec3 b1d(std::cos(ref.yaw_rad), std::sin(ref.yaw_rad), 0.0);
-  Vec3 b2d = Vec3::UnitY();
-  // b3d parallel to b1d (a level thrust direction along the heading) leaves b2d undefined; fall
-  // back on the current body x axis, then on e3, so R_des stays a rotation.
-  if (!normalized(b3d.cross(b1d), b2d, 1e-6) && !normalized(b3d.cross(R.col(0)), b2d, 1e-6))
-    normalized(b3d.cross(e3), b2d, 0.0);
-  Mat3 R_des;
-  R_des.col(0) = b2d.cross(b3d);
-  R_des.col(1) = b2d;
-  R_des.col(2) = b3d;
-
-  // ---- attitude errors and moment (Eq. 3.27, w_des = 0) ---------------------------------------
-  const Vec3 e_R = 0.5 * vee(R_des.transpose() * R - R.transpose() * R_des);
-  const Vec3& e_w = w_B;  // w - R^T R_des w_des with w_des = 0 (Eq. 3.28)
-  const Mat3& J = model().inertia_kgm2();
-  const Vec3 M = -gains_.attitude_p.cwiseProduct(e_R) - gains_.attitude_d.cwiseProduct(e_w) +
-                 w_B.cross(J * w_B);
+  // ---- attitude law (Eq. 3.27-3.28, w_des = 0) ------------------------------------------------
+  const Vec3 M = se3_attitude_moment(R, w_B, b3d, ref.yaw_rad, gains_.attitude_p,
+                                     gains_.attitude_d, model().inertia_kgm2());
 
   GeneralizedForce u;
   u << f, M;

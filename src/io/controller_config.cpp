@@ -64,9 +64,10 @@ double tilt(const Reader& rd, const YAML::Node& node, const std::string& path) {
 
 // ---- key tables -------------------------------------------------------------------------------
 
-constexpr std::array<std::string_view, 2> kTypes = {"pid", "se3"};
-constexpr std::array<std::string_view, 8> kTopKeys = {
-    "type", "description", "allocation", "mass_kg", "gravity_m_s2", "gains", "limits", "options"};
+constexpr std::array<std::string_view, 3> kTypes = {"pid", "se3", "nmpc"};
+constexpr std::array<std::string_view, 12> kTopKeys = {
+    "type",    "description", "allocation", "mass_kg", "gravity_m_s2", "gains",
+    "limits",  "options",     "horizon",    "weights", "solver",       "disturbance"};
 constexpr std::array<std::string_view, 2> kAllocations = {"exact", "thesis"};
 
 constexpr std::array<std::string_view, 6> kPidGainKeys = {"outer_p", "outer_d",  "outer_i",
@@ -82,6 +83,18 @@ constexpr std::array<std::string_view, 4> kSe3GainKeys = {"position_p", "positio
 constexpr std::array<std::string_view, 1> kSe3LimitKeys = {"max_tilt_rad"};
 constexpr std::array<std::string_view, 2> kSe3OptionKeys = {"gravity_compensation",
                                                             "nonnegative_thrust"};
+
+constexpr std::array<std::string_view, 3> kNmpcHorizonKeys = {"steps", "step_s", "input_blocks"};
+constexpr std::array<std::string_view, 4> kNmpcWeightKeys = {"state", "input", "terminal_scale",
+                                                             "tilt_penalty"};
+constexpr std::array<std::string_view, 3> kNmpcLimitKeys = {"thrust_N", "max_tilt_rad",
+                                                            "max_moment_Nm"};
+constexpr std::array<std::string_view, 4> kNmpcSolverKeys = {
+    "max_iterations", "max_solve_time_s", "function_tolerance", "linear_solver"};
+constexpr std::array<std::string_view, 2> kNmpcDisturbanceKeys = {"gain", "max_m_s2"};
+constexpr std::array<std::string_view, 2> kLinearSolvers = {"dense_normal_cholesky", "dense_qr"};
+constexpr std::array<std::string_view, 4> kNmpcOnlyKeys = {"horizon", "weights", "solver",
+                                                           "disturbance"};
 
 const char* const kOuter = "x, y, z, psi";
 const char* const kInner = "roll, pitch, yaw";
@@ -155,6 +168,114 @@ void read_se3(const Reader& rd, const Map& top, ControllerConfig& c) {
   }
 }
 
+void read_nmpc(const Reader& rd, const Map& top, ControllerConfig& c) {
+  NmpcOptions& o = c.nmpc_options;
+  if (top.has("options")) rd.fail(top.get("options"), "options", "not used by type nmpc");
+
+  const Map h = rd.map(top.required("horizon"), "horizon", kNmpcHorizonKeys,
+                       "a map with steps, step_s and optionally input_blocks");
+  o.horizon_steps = rd.integer<int>(h.required("steps"), h.path("steps"), "an integer >= 1");
+  if (o.horizon_steps < 1)
+    rd.fail(h.get("steps"), h.path("steps"),
+            "expected an integer >= 1, got " + std::to_string(o.horizon_steps));
+  o.step_s = rd.positive(h.required("step_s"), h.path("step_s"));
+  if (h.has("input_blocks")) {
+    const YAML::Node n = h.get("input_blocks");
+    const std::string path = h.path("input_blocks");
+    if (!n.IsSequence() || n.size() == 0)
+      rd.fail(n, path, "expected a non-empty list of block lengths, got " + io_detail::describe(n));
+    long sum = 0;
+    o.input_blocks.clear();
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      const std::string item = io_detail::item_path(path, i);
+      const int len = rd.integer<int>(n[i], item, "an integer >= 1");
+      if (len < 1) rd.fail(n[i], item, "expected an integer >= 1, got " + std::to_string(len));
+      o.input_blocks.push_back(len);
+      sum += len;
+    }
+    if (sum != o.horizon_steps)
+      rd.fail(n, path,
+              "block lengths sum to " + std::to_string(sum) + "; expected horizon.steps = " +
+                  std::to_string(o.horizon_steps));
+  }
+
+  const Map w = rd.map(top.required("weights"), "weights", kNmpcWeightKeys,
+                       "a map with state, input and optionally terminal_scale");
+  o.state_weights = gains<13>(rd, w.required("state"), w.path("state"),
+                              "p (3), v (3), q (4), w (3)");
+  o.input_weights = gains<6>(rd, w.required("input"), w.path("input"), "F (3), M (3)");
+  if (w.has("terminal_scale")) {
+    o.terminal_weight_scale = rd.number(w.get("terminal_scale"), w.path("terminal_scale"));
+    if (o.terminal_weight_scale < 0.0)
+      rd.fail(w.get("terminal_scale"), w.path("terminal_scale"),
+              "expected a number >= 0, got " + w.get("terminal_scale").Scalar());
+  }
+
+  if (w.has("tilt_penalty")) {
+    o.tilt_penalty_weight = rd.number(w.get("tilt_penalty"), w.path("tilt_penalty"));
+    if (o.tilt_penalty_weight < 0.0)
+      rd.fail(w.get("tilt_penalty"), w.path("tilt_penalty"),
+              "expected a number >= 0, got " + w.get("tilt_penalty").Scalar());
+  }
+  if (top.has("disturbance")) {
+    const Map d = rd.map(top.get("disturbance"), "disturbance", kNmpcDisturbanceKeys,
+                         "a map with gain and optionally max_m_s2");
+    o.disturbance_gain = rd.number(d.required("gain"), d.path("gain"));
+    if (!(o.disturbance_gain >= 0.0 && o.disturbance_gain <= 1.0))
+      rd.fail(d.get("gain"), d.path("gain"),
+              "expected a number in [0, 1], got " + d.get("gain").Scalar());
+    if (d.has("max_m_s2")) o.max_disturbance_m_s2 = rd.positive(d.get("max_m_s2"), d.path("max_m_s2"));
+  }
+
+  const Map g = rd.map(top.required("gains"), "gains", kSe3GainKeys,
+                       "a map of SE(3) gains (inner loop and fallback)");
+  const auto vec3 = [&](std::string_view key, const char* meaning) {
+    return gains<3>(rd, g.required(key), g.path(key), meaning);
+  };
+  o.se3.position_p = vec3("position_p", kXyz);
+  o.se3.position_d = vec3("position_d", kXyz);
+  o.se3.attitude_p = vec3("attitude_p", kInner);
+  o.se3.attitude_d = vec3("attitude_d", kInner);
+
+  if (top.has("limits")) {
+    const Map l = rd.map(top.get("limits"), "limits", kNmpcLimitKeys, "a map of limits");
+    if (l.has("thrust_N")) {
+      const Eigen::Vector2d t = gains<2>(rd, l.get("thrust_N"), l.path("thrust_N"), "min, max in N",
+                              /*positive_only=*/true);
+      o.min_thrust_N = t[0];
+      o.max_thrust_N = t[1];
+    }
+    if (l.has("max_tilt_rad"))
+      o.max_tilt_rad = tilt(rd, l.get("max_tilt_rad"), l.path("max_tilt_rad"));
+    if (l.has("max_moment_Nm"))
+      o.max_moment_Nm = gains<3>(rd, l.get("max_moment_Nm"), l.path("max_moment_Nm"), kInner,
+                                 /*positive_only=*/true);
+    if (l.has("thrust_N") && !(o.max_thrust_N * std::cos(o.max_tilt_rad) > o.min_thrust_N))
+      rd.fail(l.get("thrust_N"), l.path("thrust_N"),
+              "expected max cos(max_tilt_rad) > min (room for a tilted thrust), got [" +
+                  l.get("thrust_N")[0].Scalar() + ", " + l.get("thrust_N")[1].Scalar() + "]");
+  }
+
+  if (top.has("solver")) {
+    const Map p = rd.map(top.get("solver"), "solver", kNmpcSolverKeys, "a map of solver settings");
+    if (p.has("max_iterations"))
+      o.max_iterations =
+          rd.integer<int>(p.get("max_iterations"), p.path("max_iterations"), "an integer >= 0");
+    if (o.max_iterations < 0)
+      rd.fail(p.get("max_iterations"), p.path("max_iterations"),
+              "expected an integer >= 0, got " + std::to_string(o.max_iterations));
+    if (p.has("max_solve_time_s"))
+      o.max_solve_time_s = rd.positive(p.get("max_solve_time_s"), p.path("max_solve_time_s"));
+    if (p.has("function_tolerance"))
+      o.function_tolerance = rd.positive(p.get("function_tolerance"), p.path("function_tolerance"));
+    if (p.has("linear_solver"))
+      o.linear_solver = choice(rd, p.get("linear_solver"), p.path("linear_solver"),
+                               kLinearSolvers) == 0
+                            ? NmpcLinearSolver::kDenseNormalCholesky
+                            : NmpcLinearSolver::kDenseQr;
+  }
+}
+
 }  // namespace
 
 ControllerConfig parse_controller_config(const std::string& yaml_text,
@@ -164,8 +285,11 @@ ControllerConfig parse_controller_config(const std::string& yaml_text,
   const Map top = rd.map(rd.parse(yaml_text, expected), "", kTopKeys, expected);
   ControllerConfig c;
   c.source = source_name;
-  c.type = choice(rd, top.required("type"), "type", kTypes) == 0 ? ControllerType::kPid
-                                                                 : ControllerType::kSe3;
+  const std::size_t type = choice(rd, top.required("type"), "type", kTypes);
+  c.type = type == 0 ? ControllerType::kPid : (type == 1 ? ControllerType::kSe3 : ControllerType::kNmpc);
+  if (c.type != ControllerType::kNmpc)
+    for (const std::string_view key : kNmpcOnlyKeys)
+      if (top.has(key)) rd.fail(top.get(key), std::string(key), "only for type nmpc");
   if (top.has("description")) c.description = rd.string(top.get("description"), "description");
   if (top.has("allocation"))
     c.allocation = choice(rd, top.get("allocation"), "allocation", kAllocations) == 0
@@ -176,8 +300,10 @@ ControllerConfig parse_controller_config(const std::string& yaml_text,
     c.gravity_m_s2 = rd.positive(top.get("gravity_m_s2"), "gravity_m_s2");
   if (c.type == ControllerType::kPid) {
     read_pid(rd, top, c);
-  } else {
+  } else if (c.type == ControllerType::kSe3) {
     read_se3(rd, top, c);
+  } else {
+    read_nmpc(rd, top, c);
   }
   return c;
 }
@@ -199,6 +325,17 @@ std::unique_ptr<ControllerBase> make_controller(const ControllerConfig& config,
     g.gravity_m_s2 = config.gravity_m_s2;
     return std::make_unique<CascadedPid>(std::move(model), g, config.pid_options,
                                          1.0 / control_rate_hz, config.allocation);
+  }
+  if (config.type == ControllerType::kNmpc) {
+    NmpcOptions o = config.nmpc_options;
+    o.se3.mass_kg = mass;
+    o.se3.gravity_m_s2 = config.gravity_m_s2;
+    try {
+      return std::make_unique<NmpcController>(std::move(model), o, control_rate_hz,
+                                              config.allocation);
+    } catch (const InvalidArgument& err) {
+      throw InvalidArgument(config.source + ": " + err.what());
+    }
   }
   Se3Gains g = config.se3_gains;
   g.mass_kg = mass;

@@ -47,6 +47,7 @@ std::vector<std::string> log_column_names(const LogLayout& layout) {
     for (const char* s : {"ref_x", "ref_y", "ref_z", "ref_yaw", "u_T", "u_tau_x", "u_tau_y",
                           "u_tau_z", "saturated"})
       c.emplace_back(s);
+    for (const std::string& d : layout.controller_diagnostics) c.push_back("ctrl_" + d);
   }
   return c;
 }

@@ -113,6 +113,9 @@ class ControllerDriver {
     controller_->reset();
     loop_.emplace(sim, *controller_, *in.reference, in.control_rate_hz);
     loop_->set_real_time(in.real_time);
+    diag_names_ = controller_->diagnostic_names();
+    diag_now_.assign(diag_names_.size(), 0.0);
+    diag_values_.resize(diag_names_.size());
     // Sample k (t = k dt) is in the window when first_ <= k <= last_ (1e-9-step tolerance, as
     // segment_start_step()).
     if (e.metrics.window_s) {
@@ -126,8 +129,15 @@ class ControllerDriver {
   ControllerDriver(const ControllerDriver&) = delete;
   ControllerDriver& operator=(const ControllerDriver&) = delete;
 
-  void update() { loop_->update(); }
+  void update() {
+    if (loop_->update() && !diag_names_.empty()) {
+      controller_->diagnostics(diag_now_.data());
+      for (std::size_t i = 0; i < diag_now_.size(); ++i)
+        if (std::isfinite(diag_now_[i])) diag_values_[i].push_back(diag_now_[i]);
+    }
+  }
   StepResult step() { return loop_->step(); }
+  const std::vector<std::string>& diagnostic_names() const { return diag_names_; }
 
   /// Adds the tracking error at the simulator's current instant when it is in the window.
   void observe(const Simulator& sim) {
@@ -151,6 +161,10 @@ class ControllerDriver {
     out[k++] = r.yaw_rad;
     for (int i = 0; i < 4; ++i) out[k++] = loop_->last_command()[i];
     out[k++] = saturated() ? 1.0 : 0.0;
+    if (!diag_names_.empty()) {
+      controller_->diagnostics(out + k);
+      k += diag_names_.size();
+    }
     return k;
   }
 
@@ -171,6 +185,24 @@ class ControllerDriver {
     c.saturated_fraction = c.control_updates > 0 ? static_cast<double>(c.saturated_updates) /
                                                        static_cast<double>(c.control_updates)
                                                  : 0.0;
+    for (std::size_t i = 0; i < diag_names_.size(); ++i) {
+      DiagnosticSummary d;
+      d.name = diag_names_[i];
+      std::vector<double> v = diag_values_[i];
+      d.count = static_cast<std::int64_t>(v.size());
+      if (!v.empty()) {
+        std::sort(v.begin(), v.end());
+        for (const double x : v) d.sum += x;
+        d.mean = d.sum / static_cast<double>(v.size());
+        const std::size_t n = v.size();
+        d.median = n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+        // Nearest rank: the smallest value with at least 99 % of the samples at or below it.
+        const auto rank = static_cast<std::size_t>(std::ceil(0.99 * static_cast<double>(n)));
+        d.p99 = v[std::max<std::size_t>(rank, 1) - 1];
+        d.max = v.back();
+      }
+      c.diagnostics.push_back(std::move(d));
+    }
     return c;
   }
 
@@ -188,6 +220,9 @@ class ControllerDriver {
   std::array<double, 2> window_{0.0, std::numeric_limits<double>::infinity()};
   Vec4 sum_sq_ = Vec4::Zero();
   std::int64_t samples_ = 0;
+  std::vector<std::string> diag_names_;
+  std::vector<double> diag_now_;
+  std::vector<std::vector<double>> diag_values_;  // finite values per diagnostic, every update
 };
 
 /// Fills one log row from the simulator (layout of log_column_names()).
@@ -347,6 +382,20 @@ std::string summary_to_json(const RunSummary& s) {
         .integer("control_updates", c.control_updates)
         .integer("saturated_updates", c.saturated_updates)
         .num("saturated_fraction", c.saturated_fraction);
+    if (!c.diagnostics.empty()) {
+      JsonObject diag(2);
+      for (const DiagnosticSummary& d : c.diagnostics) {
+        JsonObject one(4);
+        one.integer("count", d.count)
+            .num("sum", d.sum)
+            .num("mean", d.mean)
+            .num("median", d.median)
+            .num("p99", d.p99)
+            .num("max", d.max);
+        diag.raw(d.name, one.done());
+      }
+      j.raw("diagnostics", diag.done());
+    }
   }
   j.integer("log_rows", s.log_rows)
       .str("log_path", s.log_path)
@@ -405,7 +454,8 @@ RunSummary run_experiment(const Experiment& e, std::shared_ptr<const VehicleMode
   s.summary_path = summary_path.string();
 
   const LogLayout layout{model->num_rotors(), e.log.measured, e.log.wrench_breakdown,
-                         controller.has_value()};
+                         controller.has_value(),
+                         controller ? controller->diagnostic_names() : std::vector<std::string>{}};
   CsvLogWriter log(log_path.string(), log_column_names(layout));
   std::vector<double> row(log.num_columns());
 

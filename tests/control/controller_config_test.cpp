@@ -198,7 +198,7 @@ TEST(ControllerConfig, ExactMessagesForTheCommonMistakes) {
             path + ": gains.outer_p: expected 4 numbers [x, y, z, psi], got 3 (line 4)");
   const std::string type_path = kBadDir + "/unknown_type.yaml";
   EXPECT_EQ(error_of([&] { load_controller_config(type_path); }),
-            type_path + ": type: expected one of pid, se3, got 'pdi' (line 2)");
+            type_path + ": type: expected one of pid, se3, nmpc, got 'pdi' (line 2)");
 }
 
 TEST(ControllerConfig, MissingFileAndBadRateAreRejected) {
@@ -239,6 +239,19 @@ const std::vector<BadCase> kBadCases = {
     {"missing_gain.yaml", "gains: missing required key 'outer_i'"},
     {"missing_type.yaml", "missing required key 'type'"},
     {"nan_gain.yaml", "gains.outer_d[2]: expected a finite number, got .nan"},
+    {"nmpc_blocks_wrong_sum.yaml",
+     "horizon.input_blocks: block lengths sum to 90; expected horizon.steps = 100"},
+    {"nmpc_horizon_in_se3.yaml", "horizon: only for type nmpc"},
+    {"nmpc_missing_horizon.yaml", "missing required key 'horizon'"},
+    {"nmpc_state_weights_12.yaml",
+     "weights.state: expected 13 numbers [p (3), v (3), q (4), w (3)], got 12"},
+    {"nmpc_step_not_multiple.yaml",
+     "nmpc: step_s: expected a whole multiple of the call period 1 / 1000 s, got 0.0015 s"},
+    {"nmpc_thrust_bounds_swapped.yaml",
+     "limits.thrust_N: expected max cos(max_tilt_rad) > min (room for a tilted thrust), got [20.0, "
+     "15.0]"},
+    {"nmpc_unknown_linear_solver.yaml",
+     "solver.linear_solver: expected one of dense_normal_cholesky, dense_qr, got 'sparse_schur'"},
     {"negative_gain.yaml", "gains.inner_d1[0]: expected a gain >= 0, got -0.5"},
     {"outer_p_three_numbers.yaml", "gains.outer_p: expected 4 numbers [x, y, z, psi], got 3"},
     {"pid_limit_in_se3.yaml", "limits: unknown key 'integral_limit' (valid keys: max_tilt_rad)"},
@@ -247,7 +260,7 @@ const std::vector<BadCase> kBadCases = {
     {"tilt_in_degrees.yaml", "limits.max_tilt_rad: expected an angle in (0, pi/2) rad, got 30"},
     {"two_documents.yaml", "expected one YAML document, got 2"},
     {"unknown_allocation.yaml", "allocation: expected one of exact, thesis, got 'pseudo_inverse'"},
-    {"unknown_type.yaml", "type: expected one of pid, se3, got 'pdi'"},
+    {"unknown_type.yaml", "type: expected one of pid, se3, nmpc, got 'pdi'"},
     {"unknown_yaw_loop.yaml", "options.yaw_loop: expected one of thesis, rate, got 'angle'"},
     {"yaml_syntax_error.yaml", "YAML syntax error"},
     {"yes_is_not_a_bool.yaml", "options.yaw_error_wrap: expected true or false, got 'yes'"},
@@ -284,7 +297,7 @@ TEST(BadControllerCorpus, CorpusIsFullyCovered) {
   std::set<std::string> covered;
   for (const BadCase& c : kBadCases) covered.insert(c.file);
   EXPECT_EQ(files, covered);
-  EXPECT_EQ(files.size(), 22u);
+  EXPECT_EQ(files.size(), 29u);
 }
 
 }  // namespace

@@ -302,6 +302,21 @@ TEST_F(Cli, Se3CircleNoiseOffFliesTheCircle) {
   EXPECT_LT(rmse_of(summary, "yaw"), 0.05);
 }
 
+TEST_F(Cli, NmpcFigureEightRunsWithSolveStatistics) {
+  // The NMPC issue's "done when" command, shortened to 1 s (the full run is in validation.md):
+  // exits 0, logs the solve statistics and summarises them.
+  const CliResult r =
+      run_experiment(kExperiments + "nmpc_figure8_noise_off.yaml", "nmpc", "--duration 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("nmpc_figure8_noise_off: ok"), std::string::npos) << r.out;
+  const std::string summary = read_all(out("nmpc") / "summary.json");
+  EXPECT_NE(summary.find("\"name\": \"nmpc\""), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"solve_time_ms\": {"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"failed\": {"), std::string::npos) << summary;
+  const std::string log = read_all(out("nmpc") / "log.csv");
+  EXPECT_NE(log.substr(0, log.find('\n')).find(",ctrl_iterations,"), std::string::npos);
+}
+
 TEST_F(Cli, RealTimeFlag) {
   CliResult r = run_experiment(kExperiments + "hover_pid.yaml", "rt", "--duration 0.1 --real-time");
   ASSERT_EQ(r.exit_code, 0) << r.err;

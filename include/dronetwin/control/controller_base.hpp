@@ -23,6 +23,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "dronetwin/control/reference.hpp"
 #include "dronetwin/core/types.hpp"
@@ -55,6 +56,20 @@ class ControllerBase {
   virtual std::unique_ptr<ControllerBase> clone() const = 0;
   /// Clears internal memory (integrators, previous errors) before a new run.
   virtual void reset() {}
+
+  /// Diagnostics: names of per-update values a controller reports (an NMPC's solve statistics,
+  /// say). The experiment runner logs them as `ctrl_<name>` columns and summarises them in
+  /// summary.json. Empty (the default) for controllers without diagnostics.
+  virtual std::vector<std::string> diagnostic_names() const { return {}; }
+  /// Writes the values of the most recent update, in the order of diagnostic_names(), to `out`
+  /// (room for diagnostic_names().size() values). NaN means "not applicable at this update"
+  /// (e.g. no solve ran) and is left out of the summary statistics.
+  virtual void diagnostics(double* out) const { (void)out; }
+
+  /// Gives a controller that looks ahead (NMPC) the whole reference, not just the point at the
+  /// current instant. ClosedLoop calls it with the reference it flies; the default ignores it.
+  /// A controller keeps its own copy (Reference::clone()).
+  virtual void set_reference_preview(const Reference& reference) { (void)reference; }
 
   /// Generalized forces [T, tau_x, tau_y, tau_z] (thesis Sec. 3.5.2). Throws InvalidArgument for
   /// non-finite inputs and SimulationError when the controller returns non-finite values.

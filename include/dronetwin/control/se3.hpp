@@ -59,6 +59,14 @@ struct Se3Options {
   bool nonnegative_thrust = false;
 };
 
+/// The attitude half of the SE(3) law (Eq. 3.27-3.28 with w_des = 0), shared with the NMPC's
+/// inner loop: R_des = [b2d x b3d, b2d, b3d] from the desired thrust direction `b3d` (unit) and
+/// b1d = [cos yaw, sin yaw, 0], e_R = 1/2 vee(R_des^T R - R^T R_des), and
+/// M = -K_R e_R - K_w w_B + w_B x J w_B. When b3d is parallel to b1d, b2d falls back on
+/// b3d x R e1, then b3d x e3.
+Vec3 se3_attitude_moment(const Mat3& R, const Vec3& w_B, const Vec3& b3d, double yaw_rad,
+                         const Vec3& attitude_p, const Vec3& attitude_d, const Mat3& J);
+
 class Se3Controller final : public ControllerBase {
  public:
   /// Throws InvalidArgument for negative or non-finite gains, non-positive mass or gravity, or a

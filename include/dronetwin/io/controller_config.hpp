@@ -12,6 +12,9 @@
 // modification off); the gains section is required in full. The mass used by the controllers is
 // the model's unless the file sets mass_kg.
 //
+// type nmpc builds an NmpcController (docs/controllers.md section 8): the control rate is the rate
+// it is called at (its inner loop); horizon.step_s must be a whole number of those periods.
+//
 // Trap: the control rate is part of the PID (its integral is a sum times the period); build the
 // controller with the rate the ClosedLoop will run at.
 
@@ -21,16 +24,17 @@
 #include <string_view>
 
 #include "dronetwin/control/controller_base.hpp"
+#include "dronetwin/control/nmpc.hpp"
 #include "dronetwin/control/pid.hpp"
 #include "dronetwin/control/se3.hpp"
 #include "dronetwin/model/allocation.hpp"
 
 namespace dronetwin {
 
-enum class ControllerType { kPid, kSe3 };
+enum class ControllerType { kPid, kSe3, kNmpc };
 
 constexpr std::string_view controller_type_name(ControllerType t) {
-  return t == ControllerType::kPid ? "pid" : "se3";
+  return t == ControllerType::kPid ? "pid" : (t == ControllerType::kSe3 ? "se3" : "nmpc");
 }
 
 /// A parsed controller file. Only the members of `type` are meaningful.
@@ -46,6 +50,8 @@ struct ControllerConfig {
   PidOptions pid_options;
   Se3Gains se3_gains;
   Se3Options se3_options;
+  /// type nmpc: everything but the mass (nmpc_options.se3.mass_kg is set by make_controller).
+  NmpcOptions nmpc_options;
 };
 
 /// Reads and checks a controller file. Throws InvalidArgument "<path>: <field>: <what>".

@@ -37,6 +37,9 @@ struct LogLayout {
   bool wrench_breakdown = false;
   /// Closed-loop columns ref_x .. saturated (the input is a controller).
   bool controller = false;
+  /// With `controller`: the controller's diagnostic_names(), logged after `saturated` as
+  /// ctrl_<name> (none for controllers without diagnostics).
+  std::vector<std::string> controller_diagnostics = {};
 };
 
 /// The column names of a run log, in order (see the file comment).

@@ -29,6 +29,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "dronetwin/core/types.hpp"
 #include "dronetwin/integrators/integrator.hpp"
@@ -39,6 +40,15 @@ namespace dronetwin {
 
 /// The dronetwin version this library was built as (the CMake project version).
 std::string_view version();
+
+/// Statistics of one controller diagnostic (ControllerBase::diagnostic_names()) over the
+/// controller updates where it was finite (NaN = not applicable at that update).
+struct DiagnosticSummary {
+  std::string name;
+  std::int64_t count = 0;  ///< updates with a finite value
+  double sum = 0.0;        ///< e.g. the number of failed solves for a 0/1 flag
+  double mean = 0.0, median = 0.0, p99 = 0.0, max = 0.0;  ///< p99: nearest rank; 0 if count = 0
+};
 
 /// What a closed-loop run adds to its summary.
 struct ClosedLoopSummary {
@@ -62,6 +72,8 @@ struct ClosedLoopSummary {
   /// share of control_updates (0 when there were none).
   std::int64_t saturated_updates = 0;
   double saturated_fraction = 0.0;
+  /// One entry per controller diagnostic, in diagnostic_names() order (empty without any).
+  std::vector<DiagnosticSummary> diagnostics;
 };
 
 struct RunSummary {
