@@ -11,6 +11,7 @@
 #include "bindings.hpp"
 #include "dronetwin/control/closed_loop.hpp"
 #include "dronetwin/control/controller_base.hpp"
+#include "dronetwin/control/nmpc.hpp"
 #include "dronetwin/control/pid.hpp"
 #include "dronetwin/control/reference.hpp"
 #include "dronetwin/control/se3.hpp"
@@ -22,6 +23,32 @@ namespace dronetwin::python {
 namespace {
 
 // ---- Python-subclassable Reference ------------------------------------------------------------
+/// What C++ holds when it copies a Python reference (ClosedLoop hands an NMPC a copy for its
+/// preview): a counted handle to the same Python object, called with the GIL.
+class PythonReferenceHandle final : public Reference {
+ public:
+  explicit PythonReferenceHandle(py::object obj) : obj_(std::move(obj)) {}
+  ~PythonReferenceHandle() override {
+    py::gil_scoped_acquire gil;
+    obj_ = py::object();
+  }
+  ReferencePoint at(double t_s) const override {
+    py::gil_scoped_acquire gil;
+    return obj_.attr("at")(t_s).cast<ReferencePoint>();
+  }
+  std::string describe() const override {
+    py::gil_scoped_acquire gil;
+    return obj_.attr("describe")().cast<std::string>();
+  }
+  std::unique_ptr<Reference> clone() const override {
+    py::gil_scoped_acquire gil;
+    return std::make_unique<PythonReferenceHandle>(obj_);
+  }
+
+ private:
+  py::object obj_;
+};
+
 class PyReference : public Reference {
  public:
   ReferencePoint at(double t_s) const override {
@@ -35,9 +62,8 @@ class PyReference : public Reference {
     return "python reference";
   }
   std::unique_ptr<Reference> clone() const override {
-    throw InvalidArgument(
-        "a reference written in Python cannot be copied by C++; use it directly (ClosedLoop "
-        "keeps it alive) rather than in an experiment file");
+    py::gil_scoped_acquire gil;
+    return std::make_unique<PythonReferenceHandle>(py::cast(this));
   }
 };
 
@@ -73,6 +99,16 @@ class PyController : public ControllerBase {
                           "copy.deepcopy in Python"));
   }
   void reset() override { PYBIND11_OVERRIDE(void, ControllerBase, reset, ); }
+  std::vector<std::string> diagnostic_names() const override {
+    PYBIND11_OVERRIDE(std::vector<std::string>, ControllerBase, diagnostic_names, );
+  }
+  void diagnostics(double* out) const override {
+    py::gil_scoped_acquire gil;
+    if (py::function f = py::get_override(static_cast<const ControllerBase*>(this), "diagnostics")) {
+      const auto n = static_cast<int>(diagnostic_names().size());
+      read_vector(f(), n, "diagnostics result", out);
+    }
+  }
 
  protected:
   GeneralizedForce do_calculate_u(const ControlInput& in) override {
@@ -118,6 +154,11 @@ py::dict record(ClosedLoop& loop, double duration_s, int every) {
   double *pt = t.mutable_data(), *px = x.mutable_data(), *pxm = xm.mutable_data(),
          *pw = w.mutable_data(), *pwr = wref.mutable_data(), *pref = ref.mutable_data(),
          *pu = u.mutable_data(), *psat = sat.mutable_data();
+  const ControllerBase& controller = loop.controller();
+  const std::vector<std::string> diag_names = controller.diagnostic_names();
+  const auto nd = static_cast<py::ssize_t>(diag_names.size());
+  py::array_t<double> diag({rows, nd});
+  double* pdiag = diag.mutable_data();
   py::ssize_t filled = 0;
   StepResult result;
   {
@@ -137,6 +178,7 @@ py::dict record(ClosedLoop& loop, double duration_s, int every) {
       pref[4 * r + 3] = p.yaw_rad;
       for (int k = 0; k < 4; ++k) pu[4 * r + k] = loop.last_command()[k];
       psat[r] = loop.last_allocation().saturated ? 1.0 : 0.0;
+      if (nd > 0) controller.diagnostics(pdiag + r * nd);
     };
     loop.update();
     log_row();
@@ -162,6 +204,8 @@ py::dict record(ClosedLoop& loop, double duration_s, int every) {
   d["reference"] = trim(ref);
   d["u"] = trim(u);
   d["saturated"] = trim(sat);
+  d["diagnostics"] = trim(diag);
+  d["diagnostic_names"] = diag_names;
   d["status"] = sim.status();
   d["failure_message"] = sim.failure_message();
   d["state_columns"] = py::make_tuple("x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "wx", "wy", "wz");
@@ -296,6 +340,19 @@ void bind_control(py::module_& m) {
       .def("level", &ControllerBase::level,
            "ControlLevel: GENERALIZED_FORCE (calculate_u) or ROTOR_SPEED (calculate_actuator_cmd).")
       .def("reset", &ControllerBase::reset, "Clears internal memory before a new run.")
+      .def("diagnostic_names", &ControllerBase::diagnostic_names,
+           "Names of the per-update values the controller reports (logged as ctrl_<name>).")
+      .def(
+          "diagnostics",
+          [](const ControllerBase& c) {
+            const std::vector<std::string> names = c.diagnostic_names();
+            std::vector<double> v(names.size(), 0.0);
+            if (!v.empty()) c.diagnostics(v.data());
+            py::dict d;
+            for (std::size_t i = 0; i < names.size(); ++i) d[py::str(names[i])] = v[i];
+            return d;
+          },
+          "The diagnostics of the most recent update as {name: value} (NaN: not applicable).")
       .def("calculate_u", &ControllerBase::calculate_u, py::arg("inp"),
            "Generalized force [T, tau_x, tau_y, tau_z] for `inp` (checked).")
       .def("calculate_actuator_cmd", &ControllerBase::calculate_actuator_cmd, py::arg("inp"),
@@ -369,6 +426,81 @@ void bind_control(py::module_& m) {
       .def_property_readonly("gains", [](const Se3Controller& c) { return c.gains(); }, "A copy of the gains.")
       .def_property_readonly("options", [](const Se3Controller& c) { return c.options(); }, "A copy of the options.");
 
+
+  py::enum_<NmpcLinearSolver>(m, "NmpcLinearSolver")
+      .value("DENSE_QR", NmpcLinearSolver::kDenseQr)
+      .value("DENSE_NORMAL_CHOLESKY", NmpcLinearSolver::kDenseNormalCholesky);
+  py::enum_<NmpcTermination>(m, "NmpcTermination", "How an NMPC solve ended.")
+      .value("NOT_RUN", NmpcTermination::kNotRun)
+      .value("CONVERGED", NmpcTermination::kConverged)
+      .value("ITERATION_CAP", NmpcTermination::kIterationCap, "Iteration cap or time budget; best iterate kept.")
+      .value("FAILURE", NmpcTermination::kFailure, "Solver failure, non-finite plan or injected failure.");
+  py::enum_<NmpcMode>(m, "NmpcMode", "What the NMPC flies.")
+      .value("PLAN", NmpcMode::kPlan, "The plan of the latest solve.")
+      .value("PREVIOUS_PLAN", NmpcMode::kPreviousPlan, "Fallback: the last good plan, shifted.")
+      .value("SE3", NmpcMode::kSe3, "Fallback: SE(3) position control.");
+
+  py::class_<NmpcOptions>(m, "NmpcOptions",
+                          "NMPC settings (docs/controllers.md): horizon, Eq. 3.24 weights, bounds, "
+                          "solver limits, inner SE(3) gains.")
+      .def(py::init<>())
+      .def_readwrite("horizon_steps", &NmpcOptions::horizon_steps, "N (thesis: 100).")
+      .def_readwrite("step_s", &NmpcOptions::step_s, "Shooting interval and re-solve period, s.")
+      .def_readwrite("input_blocks", &NmpcOptions::input_blocks, "Move-blocking lengths (steps).")
+      .def_readwrite("state_weights", &NmpcOptions::state_weights, "diag(Q), 13 values (Eq. 3.24).")
+      .def_readwrite("input_weights", &NmpcOptions::input_weights, "diag(R), 6 values (Eq. 3.24).")
+      .def_readwrite("terminal_weight_scale", &NmpcOptions::terminal_weight_scale)
+      .def_readwrite("tilt_penalty_weight", &NmpcOptions::tilt_penalty_weight)
+      .def_readwrite("min_thrust_N", &NmpcOptions::min_thrust_N)
+      .def_readwrite("max_thrust_N", &NmpcOptions::max_thrust_N)
+      .def_readwrite("max_tilt_rad", &NmpcOptions::max_tilt_rad)
+      .def_readwrite("max_moment_Nm", &NmpcOptions::max_moment_Nm)
+      .def_readwrite("disturbance_gain", &NmpcOptions::disturbance_gain)
+      .def_readwrite("max_disturbance_m_s2", &NmpcOptions::max_disturbance_m_s2)
+      .def_readwrite("max_iterations", &NmpcOptions::max_iterations)
+      .def_readwrite("max_solve_time_s", &NmpcOptions::max_solve_time_s)
+      .def_readwrite("function_tolerance", &NmpcOptions::function_tolerance)
+      .def_readwrite("linear_solver", &NmpcOptions::linear_solver)
+      .def_readwrite("se3", &NmpcOptions::se3)
+      .def("validate", &NmpcOptions::validate, "ValueError naming a bad option.");
+
+  py::class_<NmpcSolveStats>(m, "NmpcSolveStats", "Statistics of one NMPC solve.")
+      .def_readonly("solve_index", &NmpcSolveStats::solve_index)
+      .def_readonly("time_s", &NmpcSolveStats::time_s)
+      .def_readonly("iterations", &NmpcSolveStats::iterations)
+      .def_readonly("initial_cost", &NmpcSolveStats::initial_cost)
+      .def_readonly("final_cost", &NmpcSolveStats::final_cost)
+      .def_readonly("solve_time_s", &NmpcSolveStats::solve_time_s, "Wall clock (not reproducible).")
+      .def_readonly("termination", &NmpcSolveStats::termination)
+      .def_readonly("mode", &NmpcSolveStats::mode)
+      .def_readonly("consecutive_failures", &NmpcSolveStats::consecutive_failures)
+      .def_readonly("total_failures", &NmpcSolveStats::total_failures);
+
+  py::class_<NmpcController, ControllerBase>(
+      m, "NmpcController",
+      "Outer-loop NMPC of the Eq. 3.23 model solved with Ceres every step_s, over an SE(3)\n"
+      "attitude loop run at every call (docs/controllers.md). The plan of the latest solve is\n"
+      "available for plotting: predicted_states() ((N+1) x 13) from plan_start_time_s().")
+      .def(py::init([](const std::shared_ptr<VehicleModel>& model, const NmpcOptions& o, double rate,
+                       AllocationMethod a) { return new NmpcController(model, o, rate, a); }),
+           py::arg("model"), py::arg("options") = NmpcOptions{}, py::arg("call_rate_hz") = 1000.0,
+           py::arg("allocation") = AllocationMethod::kExact,
+           "`call_rate_hz`: the ClosedLoop's control rate (a whole multiple of 1 / step_s).")
+      .def_property_readonly("options", [](const NmpcController& c) { return c.options(); })
+      .def_property_readonly("calls_per_solve", &NmpcController::calls_per_solve)
+      .def("last_solve", [](const NmpcController& c) { return c.last_solve(); },
+           "NmpcSolveStats of the most recent solve.")
+      .def_property_readonly("mode", &NmpcController::mode)
+      .def("predicted_states", [](const NmpcController& c) { return Eigen::MatrixXd(c.predicted_states()); },
+           "States x_0..x_N of the latest successful plan ((N+1) x 13; empty before one).")
+      .def("predicted_inputs", [](const NmpcController& c) { return Eigen::MatrixXd(c.predicted_inputs()); },
+           "Inputs u_0..u_{N-1} ([F_W, M_B], N x 6).")
+      .def_property_readonly("plan_start_time_s", &NmpcController::plan_start_time_s)
+      .def_property_readonly("disturbance_estimate", [](const NmpcController& c) { return Vec3(c.disturbance_estimate()); })
+      .def_property_readonly("commanded_force", [](const NmpcController& c) { return Vec3(c.commanded_force()); })
+      .def("inject_solve_failures", &NmpcController::inject_solve_failures, py::arg("first"),
+           py::arg("count"), "Testing hook: treat solves first..first+count-1 as failed.");
+
   py::class_<ClosedLoop>(
       m, "ClosedLoop",
       "Flies a controller on a simulator along a reference (thesis Eq. 3.11): the controller runs\n"
@@ -392,7 +524,9 @@ void bind_control(py::module_& m) {
           "a dict of numpy arrays t (K,), state and measured_state (K, 13), rotor_speeds_rad_s\n"
           "and rotor_speed_reference_rad_s (K, N), reference (K, 4: x, y, z, yaw), u (K, 4: the\n"
           "generalized force of the command in effect), saturated (K,), plus status and\n"
-          "failure_message and state_columns.")
+          "failure_message and state_columns; diagnostics (K, D) with diagnostic_names for\n"
+          "controllers that report them (an NMPC's solve statistics; Python controllers may\n"
+          "implement diagnostic_names(self) and diagnostics(self)).")
       .def_property("real_time", &ClosedLoop::real_time, &ClosedLoop::set_real_time)
       .def_property_readonly("achieved_real_time_factor", &ClosedLoop::achieved_real_time_factor)
       .def_property_readonly("steps_per_control", &ClosedLoop::steps_per_control)

@@ -82,6 +82,15 @@ void bind_io(py::module_& m) {
   m.def("parse_experiment", &parse_experiment, py::arg("yaml_text"), py::arg("source_name"),
         "An experiment from YAML text; relative paths resolve against source_name's directory.");
 
+  py::class_<DiagnosticSummary>(m, "DiagnosticSummary", "Statistics of one controller diagnostic over a run.")
+      .def_readonly("name", &DiagnosticSummary::name)
+      .def_readonly("count", &DiagnosticSummary::count)
+      .def_readonly("sum", &DiagnosticSummary::sum)
+      .def_readonly("mean", &DiagnosticSummary::mean)
+      .def_readonly("median", &DiagnosticSummary::median)
+      .def_readonly("p99", &DiagnosticSummary::p99)
+      .def_readonly("max", &DiagnosticSummary::max);
+
   py::class_<ClosedLoopSummary>(m, "ClosedLoopSummary", "What a closed-loop run adds to its summary.")
       .def_readonly("controller_name", &ClosedLoopSummary::controller_name)
       .def_readonly("controller_path", &ClosedLoopSummary::controller_path)
@@ -95,7 +104,9 @@ void bind_io(py::module_& m) {
       .def_readonly("rmse_samples", &ClosedLoopSummary::rmse_samples)
       .def_readonly("control_updates", &ClosedLoopSummary::control_updates)
       .def_readonly("saturated_updates", &ClosedLoopSummary::saturated_updates)
-      .def_readonly("saturated_fraction", &ClosedLoopSummary::saturated_fraction);
+      .def_readonly("saturated_fraction", &ClosedLoopSummary::saturated_fraction)
+      .def_readonly("diagnostics", &ClosedLoopSummary::diagnostics,
+                    "Per-diagnostic statistics (e.g. the NMPC's solve times and failures).");
 
   py::class_<RunSummary>(m, "RunSummary", "The outcome of run_experiment (summary.json as an object).")
       .def_readonly("experiment_name", &RunSummary::experiment_name)

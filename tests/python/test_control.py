@@ -169,3 +169,80 @@ def test_thesis_references_follow_their_equations():
 def test_unknown_controller_type_is_named(qdrone2):
     with pytest.raises(ValueError, match="type"):
         dt.controller_from_yaml("type: lqr\n", qdrone2, 100.0, "mine.yaml")
+
+
+def test_nmpc_from_python_exposes_its_plan_and_solve_statistics(qdrone2):
+    nmpc = dt.load_controller(source_path("config", "controllers", "nmpc.yaml"), qdrone2, 1000.0)
+    assert isinstance(nmpc, dt.NmpcController)
+    n = nmpc.options.horizon_steps
+    reference = dt.FigureEightReference()
+    start = reference.at(0.0)
+    sim = start_hovering(qdrone2, 1.2)
+    state = dt.Simulator.hover_state(start.position_m)
+    state[3:6] = start.velocity_m_s
+    sim.reset(state, qdrone2.hover_speeds_rad_s())
+    log = dt.ClosedLoop(sim, nmpc, reference, 1000.0).record(1.0, every_n_steps=10)
+    assert log["status"] == dt.StepStatus.OK
+    xs = nmpc.predicted_states()
+    assert xs.shape == (n + 1, 13) and nmpc.predicted_inputs().shape == (n, 6)
+    # The plan starts at the state the last solve saw: within one control period of now.
+    assert abs(nmpc.plan_start_time_s - sim.time_s) <= nmpc.options.step_s + 1e-12
+    stats = nmpc.last_solve()
+    assert stats.termination != dt.NmpcTermination.FAILURE and stats.total_failures == 0
+    assert stats.solve_index == 100  # solves at t = 0, 0.01, ..., 1.0
+    names = log["diagnostic_names"]
+    assert "solve_time_ms" in names and log["diagnostics"].shape == (len(log["t"]), len(names))
+    assert np.all(log["diagnostics"][:, names.index("failed")] == 0)
+
+
+def test_nmpc_falls_back_and_reports_it(qdrone2):
+    nmpc = dt.load_controller(source_path("config", "controllers", "nmpc.yaml"), qdrone2, 1000.0)
+    nmpc.inject_solve_failures(10, 1000)
+    sim = start_hovering(qdrone2, 1.0)
+    log = dt.ClosedLoop(sim, nmpc, dt.SetpointReference([0.0, 0.0, 1.0]), 1000.0).record(2.0, 10)
+    assert log["status"] == dt.StepStatus.OK
+    assert nmpc.mode != dt.NmpcMode.PLAN
+    assert nmpc.last_solve().total_failures > 0
+    assert np.abs(sim.state[:3] - [0.0, 0.0, 1.0]).max() < 0.1  # still flying safely
+
+
+def test_python_reference_drives_a_previewing_controller(qdrone2):
+    # ClosedLoop hands the NMPC a copy of the reference for its preview: a Python reference is
+    # shared (not copied) and called back with the GIL.
+    class Hold(dt.Reference):
+        def __init__(self):
+            super().__init__()
+            self.calls = 0
+
+        def at(self, t):
+            self.calls += 1
+            return dt.ReferencePoint([0.0, 0.0, 1.0])
+
+    ref = Hold()
+    nmpc = dt.load_controller(source_path("config", "controllers", "nmpc.yaml"), qdrone2, 1000.0)
+    sim = start_hovering(qdrone2, 1.0)
+    loop = dt.ClosedLoop(sim, nmpc, ref, 1000.0)
+    loop.run(0.2)
+    assert ref.calls > 200  # the loop and the preview over the horizon both asked
+    assert abs(sim.state[2] - 1.0) < 0.01
+
+
+class WithDiagnostics(PythonGeometric):
+    def diagnostic_names(self):
+        return ["thrust_N"]
+
+    def diagnostics(self):
+        return [self.last_thrust]
+
+    def calculate_u(self, inp):
+        u = super().calculate_u(inp)
+        self.last_thrust = float(u[0])
+        return u
+
+
+def test_python_controller_diagnostics_are_recorded(qdrone2):
+    sim = start_hovering(qdrone2)
+    ctrl = WithDiagnostics(qdrone2)
+    log = dt.ClosedLoop(sim, ctrl, dt.SetpointReference([0.0, 0.0, 1.0]), 100.0).record(0.5, 10)
+    assert log["diagnostic_names"] == ["thrust_N"]
+    assert np.allclose(log["diagnostics"][:, 0], log["u"][:, 0])
