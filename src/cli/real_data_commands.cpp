@@ -37,11 +37,14 @@ std::string stem_of(const std::string& path) {
 void json_fit(std::ostream& out, const LinearFit& f, const std::string& indent) {
   out << "{";
   for (std::size_t j = 0; j < f.names.size(); ++j) {
-    out << "\n" << indent << "  \"" << f.names[j] << "\": {\"value\": " << f.coefficients[j]
+    out << "\n"
+        << indent << "  \"" << f.names[j] << "\": {\"value\": " << f.coefficients[j]
         << ", \"std_error\": " << f.std_errors[j] << "},";
   }
-  out << "\n" << indent << "  \"residual_rms\": " << f.residual_rms
-      << ", \"num_points\": " << f.num_points << "\n" << indent << "}";
+  out << "\n"
+      << indent << "  \"residual_rms\": " << f.residual_rms << ", \"num_points\": " << f.num_points
+      << "\n"
+      << indent << "}";
 }
 
 void print_fit(const LinearFit& f, const std::string& unit_note) {
@@ -63,8 +66,8 @@ std::ofstream open_out(const fs::path& p) {
 int identify_stand(const RealDataCommands& c) {
   const ThrustStandData data = read_thrust_stand_csv(c.input);
   const ThrustStandFit f = fit_thrust_stand(data);
-  std::cout << "thrust stand " << c.input << ": " << data.rows() << " rows, tare "
-            << f.tare_g << " g (" << f.tare_rows << " rest rows)\n"
+  std::cout << "thrust stand " << c.input << ": " << data.rows() << " rows, tare " << f.tare_g
+            << " g (" << f.tare_rows << " rest rows)\n"
             << "T(w) = K1 w^2 + K2 w + K3 per motor (N, rad/s), thesis Eq. 2.22:\n";
   print_fit(f.thrust, "N");
   std::cout << "speed map w = a u + b, u = pwm/65535 vbat (V):\n";
@@ -100,16 +103,15 @@ int identify_stand(const RealDataCommands& c) {
   constexpr double k = 2.0 * std::numbers::pi / 60.0;
   const auto& th = f.thrust.coefficients;
   for (std::size_t i = 0; i < data.rows(); ++i) {
-    const double w =
-        (data.rpm[0][i] + data.rpm[1][i] + data.rpm[2][i] + data.rpm[3][i]) / 4.0 * k;
+    const double w = (data.rpm[0][i] + data.rpm[1][i] + data.rpm[2][i] + data.rpm[3][i]) / 4.0 * k;
     const bool used = data.pwm[i] > 0 && data.rpm[0][i] > 0 && data.rpm[1][i] > 0 &&
                       data.rpm[2][i] > 0 && data.rpm[3][i] > 0;
     pts << data.pwm[i] << "," << data.vbat_V[i] << "," << data.pwm[i] / 65535.0 * data.vbat_V[i]
         << "," << w << "," << data.rpm[0][i] * k << "," << data.rpm[1][i] * k << ","
         << data.rpm[2][i] * k << "," << data.rpm[3][i] * k << ","
-        << (data.weight_g[i] - f.tare_g) * 9.81 / 4000.0 << ","
-        << (th[0] * w + th[1]) * w + th[2] << ","
-        << f.speed_map.speed_rad_s(data.pwm[i], data.vbat_V[i]) << "," << (used ? 1 : 0) << "\n";
+        << (data.weight_g[i] - f.tare_g) * 9.81 / 4000.0 << "," << (th[0] * w + th[1]) * w + th[2]
+        << "," << f.speed_map.speed_rad_s(data.pwm[i], data.vbat_V[i]) << "," << (used ? 1 : 0)
+        << "\n";
   }
   require(static_cast<bool>(pts), c.out_dir, "/stand_points.csv: write failed");
   return 0;
@@ -125,14 +127,16 @@ int identify_vertical(const RealDataCommands& c) {
   o.train_fraction = c.train_fraction;
   const VerticalFitResult r = fit_vertical(log, model, o);
   std::cout << "vertical fit " << c.input << " with thrust curve of " << c.model << ":\n"
-            << "  acc_z (= dvz/dt + g) = c R33 sum T_i(omega_i)" << (o.fit_drag ? " - d vz" : "") << "\n";
+            << "  acc_z (= dvz/dt + g) = c R33 sum T_i(omega_i)" << (o.fit_drag ? " - d vz" : "")
+            << "\n";
   print_fit(r.fit, "m/s^2 (train)");
   std::cout << "  mass = 1/c = " << r.mass_kg * 1000 << " +- " << r.mass_std_error_kg * 1000
             << " g (stand thrust taken as true)\n"
             << "  train " << r.num_train << " samples, held out " << r.num_test
             << " samples from t = " << r.t_split_s << " s\n"
-            << "  held-out RMS: fitted " << r.rms_test_m_s2 << " m/s^2, prior (m = "
-            << r.prior_mass_kg * 1000 << " g, no drag) " << r.rms_test_prior_m_s2 << " m/s^2\n";
+            << "  held-out RMS: fitted " << r.rms_test_m_s2
+            << " m/s^2, prior (m = " << r.prior_mass_kg * 1000 << " g, no drag) "
+            << r.rms_test_prior_m_s2 << " m/s^2\n";
   if (c.out_dir.empty()) return 0;
   fs::create_directories(c.out_dir);
   {
@@ -140,20 +144,21 @@ int identify_vertical(const RealDataCommands& c) {
     out << "{\n  \"source\": \"" << c.input << "\",\n  \"model\": \"" << c.model
         << "\",\n  \"fit\": ";
     json_fit(out, r.fit, "  ");
-    out << ",\n  \"mass_kg\": " << r.mass_kg << ",\n  \"mass_std_error_kg\": "
-        << r.mass_std_error_kg << ",\n  \"prior_mass_kg\": " << r.prior_mass_kg
-        << ",\n  \"num_train\": " << r.num_train << ",\n  \"num_test\": " << r.num_test
-        << ",\n  \"t_split_s\": " << r.t_split_s << ",\n  \"rms_train_m_s2\": "
-        << r.rms_train_m_s2 << ",\n  \"rms_test_m_s2\": " << r.rms_test_m_s2
+    out << ",\n  \"mass_kg\": " << r.mass_kg
+        << ",\n  \"mass_std_error_kg\": " << r.mass_std_error_kg
+        << ",\n  \"prior_mass_kg\": " << r.prior_mass_kg << ",\n  \"num_train\": " << r.num_train
+        << ",\n  \"num_test\": " << r.num_test << ",\n  \"t_split_s\": " << r.t_split_s
+        << ",\n  \"rms_train_m_s2\": " << r.rms_train_m_s2
+        << ",\n  \"rms_test_m_s2\": " << r.rms_test_m_s2
         << ",\n  \"rms_test_prior_m_s2\": " << r.rms_test_prior_m_s2 << "\n}\n";
   }
   std::ofstream pts = open_out(fs::path(c.out_dir) / "vertical_points.csv");
   pts << "t,acc_z,fit,prior,thrust_z_N,vz,train\n";
   const double cc = r.fit.coefficients[0], d = o.fit_drag ? r.fit.coefficients[1] : 0.0;
   for (std::size_t i = 0; i < r.t_s.size(); ++i) {
-    pts << r.t_s[i] << "," << r.lhs_m_s2[i] << "," << cc * r.thrust_z_N[i] - d * r.vz_m_s[i]
-        << "," << r.thrust_z_N[i] / r.prior_mass_kg << "," << r.thrust_z_N[i] << ","
-        << r.vz_m_s[i] << "," << (i < r.num_train ? 1 : 0) << "\n";
+    pts << r.t_s[i] << "," << r.lhs_m_s2[i] << "," << cc * r.thrust_z_N[i] - d * r.vz_m_s[i] << ","
+        << r.thrust_z_N[i] / r.prior_mass_kg << "," << r.thrust_z_N[i] << "," << r.vz_m_s[i] << ","
+        << (i < r.num_train ? 1 : 0) << "\n";
   }
   require(static_cast<bool>(pts), c.out_dir, "/vertical_points.csv: write failed");
   return 0;
@@ -183,7 +188,8 @@ void register_real_data_commands(CLI::App& app, RealDataCommands& c) {
   c.identify_stand->add_option("stand", c.input, "Thrust-stand CSV")->required();
   c.identify_stand->add_option("--out,-o", c.out_dir, "Write stand_fit.json, stand_points.csv");
   c.identify_vertical = c.identify_cmd->add_subcommand(
-      "vertical", "Thrust-to-mass (and vertical drag) from an imported flight, with held-out check");
+      "vertical",
+      "Thrust-to-mass (and vertical drag) from an imported flight, with held-out check");
   c.identify_vertical->add_option("log", c.input, "Imported flight log (CSV)")->required();
   c.identify_vertical->add_option("--model,-m", c.model, "Model with the thrust curve")->required();
   c.identify_vertical->add_option("--out,-o", c.out_dir,

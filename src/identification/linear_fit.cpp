@@ -19,8 +19,7 @@ class RowResidual final : public ceres::CostFunction {
     set_num_residuals(1);
     mutable_parameter_block_sizes()->push_back(p);
   }
-  bool Evaluate(double const* const* params, double* residuals,
-                double** jacobians) const override {
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
     double r = -y_;
     for (int j = 0; j < p_; ++j) r += row_[j] * params[0][j];
     residuals[0] = r;
@@ -47,8 +46,8 @@ Eigen::VectorXd LinearFit::predict(const Eigen::MatrixXd& a) const {
 LinearFit fit_linear(const Eigen::MatrixXd& a, const Eigen::VectorXd& y,
                      std::vector<std::string> names, const std::string& what) {
   const Eigen::Index n = a.rows(), p = a.cols();
-  require(p >= 1 && static_cast<Eigen::Index>(names.size()) == p, what, ": ", p,
-          " columns but ", names.size(), " parameter names");
+  require(p >= 1 && static_cast<Eigen::Index>(names.size()) == p, what, ": ", p, " columns but ",
+          names.size(), " parameter names");
   require(y.size() == n, what, ": ", n, " rows in A but ", y.size(), " values");
   require(n > p, what, ": need more rows than parameters, got ", n, " rows for ", p);
   require(a.allFinite() && y.allFinite(), what, ": non-finite value in the data");

@@ -27,10 +27,10 @@ ThrustStandFit fit_thrust_stand(const ThrustStandData& d, const ThrustStandOptio
   std::vector<std::size_t> used;
   double tare_sum = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
-    const bool all_stopped = d.rpm[0][i] == 0 && d.rpm[1][i] == 0 && d.rpm[2][i] == 0 &&
-                             d.rpm[3][i] == 0;
-    const bool all_running = d.rpm[0][i] > 0 && d.rpm[1][i] > 0 && d.rpm[2][i] > 0 &&
-                             d.rpm[3][i] > 0;
+    const bool all_stopped =
+        d.rpm[0][i] == 0 && d.rpm[1][i] == 0 && d.rpm[2][i] == 0 && d.rpm[3][i] == 0;
+    const bool all_running =
+        d.rpm[0][i] > 0 && d.rpm[1][i] > 0 && d.rpm[2][i] > 0 && d.rpm[3][i] > 0;
     if (d.pwm[i] == 0.0 && all_stopped) {
       tare_sum += d.weight_g[i];
       ++fit.tare_rows;

@@ -39,7 +39,8 @@ VerticalFitResult fit_vertical(const LogTable& log, const VehicleModel& model,
   const std::size_t n = r.t_s.size();
   require(n >= 20, log.source, ": only ", n, " airborne samples (z > ", options.min_height_m,
           " m, all rotors spinning); need at least 20");
-  r.num_train = static_cast<std::size_t>(std::floor(options.train_fraction * static_cast<double>(n)));
+  r.num_train =
+      static_cast<std::size_t>(std::floor(options.train_fraction * static_cast<double>(n)));
   r.num_test = n - r.num_train;
   require(r.num_train >= 10 && r.num_test >= 10, log.source, ": train/test split ", r.num_train,
           "/", r.num_test, " leaves fewer than 10 samples on a side");

@@ -12,8 +12,8 @@ namespace {
 
 /// A column of `t` with every value checked to lie in [lo, hi]; the error names file, line
 /// (header is line 1) and column.
-std::vector<double> checked_column(const LogTable& t, const std::string& name, double lo,
-                                   double hi, double scale = 1.0) {
+std::vector<double> checked_column(const LogTable& t, const std::string& name, double lo, double hi,
+                                   double scale = 1.0) {
   const std::size_t c = t.column(name);
   std::vector<double> out(t.rows());
   for (std::size_t r = 0; r < t.rows(); ++r) {

@@ -26,8 +26,8 @@ std::string json_string(const std::string& s) {
 }  // namespace
 
 std::vector<std::string> crazypad_import_columns() {
-  return {"t",  "x",  "y",  "z",  "vx", "vy", "vz", "qw", "qx", "qy", "qz",
-          "omega_0", "omega_1", "omega_2", "omega_3", "acc_x", "acc_y", "acc_z"};
+  return {"t",  "x",  "y",       "z",       "vx",      "vy",      "vz",    "qw",    "qx",
+          "qy", "qz", "omega_0", "omega_1", "omega_2", "omega_3", "acc_x", "acc_y", "acc_z"};
 }
 
 CrazyPadImport import_crazypad(const CrazyPadFlight& f, const SpeedMap& speed_map,
@@ -57,14 +57,23 @@ CrazyPadImport import_crazypad(const CrazyPadFlight& f, const SpeedMap& speed_ma
     imp.max_abs_pitch_rad = std::max(imp.max_abs_pitch_rad, std::abs(pitch));
     const Vec4 q = math::from_euler(roll, pitch, yaw);
     const double row[] = {f.t_s[i] - imp.t0_s,
-                          f.pos_m[0][i], f.pos_m[1][i], f.pos_m[2][i],
-                          f.vel_m_s[0][i], f.vel_m_s[1][i], f.vel_m_s[2][i],
-                          q[0], q[1], q[2], q[3],
+                          f.pos_m[0][i],
+                          f.pos_m[1][i],
+                          f.pos_m[2][i],
+                          f.vel_m_s[0][i],
+                          f.vel_m_s[1][i],
+                          f.vel_m_s[2][i],
+                          q[0],
+                          q[1],
+                          q[2],
+                          q[3],
                           speed_map.speed_rad_s(f.pwm[0][i], f.vbat_V[i]),
                           speed_map.speed_rad_s(f.pwm[1][i], f.vbat_V[i]),
                           speed_map.speed_rad_s(f.pwm[2][i], f.vbat_V[i]),
                           speed_map.speed_rad_s(f.pwm[3][i], f.vbat_V[i]),
-                          ax, ay, az};
+                          ax,
+                          ay,
+                          az};
     imp.values.insert(imp.values.end(), std::begin(row), std::end(row));
   }
   return imp;

@@ -21,8 +21,20 @@ namespace dronetwin {
 
 namespace {
 
-enum class Basic { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kInt64, kUint64, kFloat,
-                   kDouble, kBool, kChar };
+enum class Basic {
+  kInt8,
+  kUint8,
+  kInt16,
+  kUint16,
+  kInt32,
+  kUint32,
+  kInt64,
+  kUint64,
+  kFloat,
+  kDouble,
+  kBool,
+  kChar
+};
 
 std::optional<Basic> basic_type(std::string_view name) {
   static const std::pair<std::string_view, Basic> kTypes[] = {
@@ -38,10 +50,22 @@ std::optional<Basic> basic_type(std::string_view name) {
 
 std::size_t basic_size(Basic t) {
   switch (t) {
-    case Basic::kInt8: case Basic::kUint8: case Basic::kBool: case Basic::kChar: return 1;
-    case Basic::kInt16: case Basic::kUint16: return 2;
-    case Basic::kInt32: case Basic::kUint32: case Basic::kFloat: return 4;
-    case Basic::kInt64: case Basic::kUint64: case Basic::kDouble: return 8;
+    case Basic::kInt8:
+    case Basic::kUint8:
+    case Basic::kBool:
+    case Basic::kChar:
+      return 1;
+    case Basic::kInt16:
+    case Basic::kUint16:
+      return 2;
+    case Basic::kInt32:
+    case Basic::kUint32:
+    case Basic::kFloat:
+      return 4;
+    case Basic::kInt64:
+    case Basic::kUint64:
+    case Basic::kDouble:
+      return 8;
   }
   return 0;
 }
@@ -57,18 +81,30 @@ T load(const std::uint8_t* p) {
 
 double basic_value(Basic t, const std::uint8_t* p) {
   switch (t) {
-    case Basic::kInt8: return static_cast<double>(load<std::int8_t>(p));
-    case Basic::kUint8: return static_cast<double>(load<std::uint8_t>(p));
-    case Basic::kInt16: return static_cast<double>(load<std::int16_t>(p));
-    case Basic::kUint16: return static_cast<double>(load<std::uint16_t>(p));
-    case Basic::kInt32: return static_cast<double>(load<std::int32_t>(p));
-    case Basic::kUint32: return static_cast<double>(load<std::uint32_t>(p));
-    case Basic::kInt64: return static_cast<double>(load<std::int64_t>(p));
-    case Basic::kUint64: return static_cast<double>(load<std::uint64_t>(p));
-    case Basic::kFloat: return static_cast<double>(load<float>(p));
-    case Basic::kDouble: return load<double>(p);
-    case Basic::kBool: return p[0] != 0 ? 1.0 : 0.0;
-    case Basic::kChar: return static_cast<double>(static_cast<unsigned char>(p[0]));
+    case Basic::kInt8:
+      return static_cast<double>(load<std::int8_t>(p));
+    case Basic::kUint8:
+      return static_cast<double>(load<std::uint8_t>(p));
+    case Basic::kInt16:
+      return static_cast<double>(load<std::int16_t>(p));
+    case Basic::kUint16:
+      return static_cast<double>(load<std::uint16_t>(p));
+    case Basic::kInt32:
+      return static_cast<double>(load<std::int32_t>(p));
+    case Basic::kUint32:
+      return static_cast<double>(load<std::uint32_t>(p));
+    case Basic::kInt64:
+      return static_cast<double>(load<std::int64_t>(p));
+    case Basic::kUint64:
+      return static_cast<double>(load<std::uint64_t>(p));
+    case Basic::kFloat:
+      return static_cast<double>(load<float>(p));
+    case Basic::kDouble:
+      return load<double>(p);
+    case Basic::kBool:
+      return p[0] != 0 ? 1.0 : 0.0;
+    case Basic::kChar:
+      return static_cast<double>(static_cast<unsigned char>(p[0]));
   }
   return 0.0;
 }
@@ -112,9 +148,9 @@ struct Leaf {
 
 struct Subscription {
   std::size_t topic_index;
-  std::vector<Leaf> leaves;      // non-padding, non-text values
-  std::size_t min_size = 0;      // bytes needed for every leaf (trailing padding may be absent)
-  std::size_t full_size = 0;     // bytes of the whole format
+  std::vector<Leaf> leaves;   // non-padding, non-text values
+  std::size_t min_size = 0;   // bytes needed for every leaf (trailing padding may be absent)
+  std::size_t full_size = 0;  // bytes of the whole format
   std::optional<std::size_t> timestamp_offset;
 };
 
@@ -154,7 +190,8 @@ class Parser {
 std::size_t Parser::format_size(const std::string& name, std::size_t at, int depth) {
   if (const auto t = basic_type(name)) return basic_size(*t);
   if (const auto it = size_cache_.find(name); it != size_cache_.end()) return it->second;
-  if (depth > 32) fail(at, "message formats nest deeper than 32 levels (recursive format '", name, "'?)");
+  if (depth > 32)
+    fail(at, "message formats nest deeper than 32 levels (recursive format '", name, "'?)");
   const auto f = formats_.find(name);
   if (f == formats_.end()) fail(at, "unknown type '", name, "' (no format 'F' message defines it)");
   std::size_t size = 0;
@@ -259,7 +296,8 @@ void Parser::parse_format(const std::uint8_t* p, std::size_t n, std::size_t at) 
 }
 
 void Parser::parse_key_value(const std::uint8_t* p, std::size_t n, std::size_t at, char kind) {
-  // 'I'/'P': [key_len][key][value]; 'M': [is_continued][key_len]...; 'Q': [default_types][key_len]...
+  // 'I'/'P': [key_len][key][value]; 'M': [is_continued][key_len]...; 'Q':
+  // [default_types][key_len]...
   std::size_t skip = (kind == 'M' || kind == 'Q') ? 1 : 0;
   if (n < skip + 1) fail(at, "'", kind, "' message too short (", n, " bytes)");
   const std::size_t key_len = p[skip];
@@ -276,7 +314,9 @@ void Parser::parse_key_value(const std::uint8_t* p, std::size_t n, std::size_t a
   double number = 0.0;
   std::string text = decode_value(type, value, value_len, at, &number);
   switch (kind) {
-    case 'I': log_.info[name] = std::move(text); break;
+    case 'I':
+      log_.info[name] = std::move(text);
+      break;
     case 'M': {
       auto& list = log_.info_multiple[name];
       if (p[0] != 0 && !list.empty()) {
@@ -293,7 +333,8 @@ void Parser::parse_key_value(const std::uint8_t* p, std::size_t n, std::size_t a
       if (data_section_) log_.parameter_changes.emplace_back(name, number);
       log_.parameters[name] = number;
       break;
-    default: break;  // 'Q' default values: read and checked, not kept
+    default:
+      break;  // 'Q' default values: read and checked, not kept
   }
 }
 
@@ -344,8 +385,8 @@ void Parser::parse_data(const std::uint8_t* p, std::size_t n, std::size_t at) {
   const std::size_t size = n - 2;
   ULogTopic& topic = log_.topics[s.topic_index];
   if (size < s.min_size || size > s.full_size) {
-    fail(at, "data message of '", topic.name, "' has ", size, " bytes, expected ", s.min_size,
-         "..", s.full_size);
+    fail(at, "data message of '", topic.name, "' has ", size, " bytes, expected ", s.min_size, "..",
+         s.full_size);
   }
   for (std::size_t i = 0; i < s.leaves.size(); ++i) {
     const Leaf& leaf = s.leaves[i];
@@ -394,16 +435,30 @@ ULog Parser::run() {
         }
         break;
       }
-      case 'F': parse_format(p, size, at); break;
-      case 'I': case 'M': case 'P': case 'Q': parse_key_value(p, size, at, type); break;
-      case 'A': data_section_ = true; parse_subscription(p, size, at); break;
+      case 'F':
+        parse_format(p, size, at);
+        break;
+      case 'I':
+      case 'M':
+      case 'P':
+      case 'Q':
+        parse_key_value(p, size, at, type);
+        break;
+      case 'A':
+        data_section_ = true;
+        parse_subscription(p, size, at);
+        break;
       case 'R': {
         if (size < 2) fail(at, "remove 'R' message too short");
         subscriptions_.erase(load<std::uint16_t>(p));
         break;
       }
-      case 'D': data_section_ = true; parse_data(p, size, at); break;
-      case 'L': case 'C': {
+      case 'D':
+        data_section_ = true;
+        parse_data(p, size, at);
+        break;
+      case 'L':
+      case 'C': {
         const std::size_t head = type == 'L' ? 9 : 11;
         if (size < head) fail(at, "logging '", type, "' message too short (", size, " bytes)");
         ULogMessage m;
@@ -463,9 +518,8 @@ const std::vector<double>& ULogTopic::column(std::string_view c) const {
 }
 
 bool ULog::has_topic(std::string_view name, int multi_id) const {
-  return std::any_of(topics.begin(), topics.end(), [&](const ULogTopic& t) {
-    return t.name == name && t.multi_id == multi_id;
-  });
+  return std::any_of(topics.begin(), topics.end(),
+                     [&](const ULogTopic& t) { return t.name == name && t.multi_id == multi_id; });
 }
 
 const ULogTopic& ULog::topic(std::string_view name, int multi_id) const {

@@ -57,10 +57,13 @@ TEST(LinearFit, RejectsBadInput) {
   a.col(0).setOnes();
   a.col(1).setOnes();  // two identical columns: not identifiable
   const Eigen::VectorXd y = Eigen::VectorXd::LinSpaced(5, 0, 1);
-  EXPECT_NE(error_of([&] { fit_linear(a, y, {"a", "b"}, "dup"); }).find("not identifiable"),
+  EXPECT_NE(error_of([&] {
+              fit_linear(a, y, {"a", "b"}, "dup");
+            }).find("not identifiable"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { fit_linear(a.topRows(2), y.head(2), {"a", "b"}, "few"); })
-                .find("more rows than parameters"),
+  EXPECT_NE(error_of([&] {
+              fit_linear(a.topRows(2), y.head(2), {"a", "b"}, "few");
+            }).find("more rows than parameters"),
             std::string::npos);
   Eigen::MatrixXd z = Eigen::MatrixXd::Zero(5, 1);
   EXPECT_NE(error_of([&] { fit_linear(z, y, {"a"}, "zero"); }).find("column 0 (a) is all zero"),
@@ -133,7 +136,8 @@ TEST(ThrustStandFit, RealStandDataFitsWithinItsRepeatability) {
     }
     pwm.push_back(d.pwm[i]);
     thrust.push_back((d.weight_g[i] - f.tare_g) * 9.81 / 4000.0);
-    w.push_back((d.rpm[0][i] + d.rpm[1][i] + d.rpm[2][i] + d.rpm[3][i]) / 4 * std::numbers::pi / 30);
+    w.push_back((d.rpm[0][i] + d.rpm[1][i] + d.rpm[2][i] + d.rpm[3][i]) / 4 * std::numbers::pi /
+                30);
   }
   EXPECT_EQ(f.thrust.num_points, pwm.size());
   // Eq. 2.22 explains the thrust to better than the scatter of repeated samples at one PWM

@@ -30,8 +30,8 @@ TEST(VerticalFit, RecoversThrustPerMassAndDragExactly) {
   const double c = 1.0 / 0.0291, d = 0.37;
   LogTable t;
   t.source = "synthetic";
-  t.columns = {"t", "z", "vz", "qw", "qx", "qy", "qz", "omega_0", "omega_1", "omega_2", "omega_3",
-               "acc_z"};
+  t.columns = {"t",  "z",       "vz",      "qw",      "qx",      "qy",
+               "qz", "omega_0", "omega_1", "omega_2", "omega_3", "acc_z"};
   Random rng(3);
   for (int i = 0; i < 300; ++i) {
     const Vec4 q = math::from_euler(0.3 * (rng.uniform() - 0.5), 0.3 * (rng.uniform() - 0.5),
@@ -43,8 +43,9 @@ TEST(VerticalFit, RecoversThrustPerMassAndDragExactly) {
     }
     const double vz = rng.uniform() - 0.5;
     const double r33 = math::rotation_matrix<double>(q)(2, 2);
-    const double row[] = {0.01 * i, i < 5 ? 0.0 : 0.5, vz, q[0], q[1], q[2], q[3],
-                          w[0], w[1], w[2], w[3], c * r33 * thrust - d * vz};
+    const double row[] = {
+        0.01 * i, i < 5 ? 0.0 : 0.5,        vz, q[0], q[1], q[2], q[3], w[0], w[1], w[2],
+        w[3],     c * r33 * thrust - d * vz};
     t.values.insert(t.values.end(), std::begin(row), std::end(row));
   }
   const VerticalFitResult r = fit_vertical(t, *model);

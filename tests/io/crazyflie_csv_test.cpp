@@ -85,7 +85,8 @@ TEST_F(CrazyflieCsv, ErrorsNameFileLineAndColumn) {
                      << "0,0,3.9,0,0,0,0,3.8,0.2,0.8\n0,70000,3.9,0,0,0,0,3.8,0.2,0.8\n";
     const std::string e = error_of([&] { read_thrust_stand_csv(p); });
     EXPECT_NE(e.find(p + ": line 3, column 2 (pwm): expected a value in [0, 65535], got 70000"),
-              std::string::npos) << e;
+              std::string::npos)
+        << e;
   }
   // Time going backwards in a flight.
   {
@@ -102,7 +103,8 @@ TEST_F(CrazyflieCsv, ErrorsNameFileLineAndColumn) {
     std::ofstream(p) << text;
     const std::string e = error_of([&] { read_crazypad_csv(p); });
     EXPECT_NE(e.find(p + ": line 4, column 1 (timestamp_ms): time must increase"),
-              std::string::npos) << e;
+              std::string::npos)
+        << e;
   }
   // Malformed number: reported by the CSV reader with line and column.
   {
@@ -178,7 +180,8 @@ TEST_F(CrazyflieCsv, ImportTheRealFlightWritesLogAndSidecar) {
     if (r < 50) {
       EXPECT_NEAR(t.at(r, t.column("acc_z")), 9.81, 0.05);
     }
-    for (int i = 0; i < 4; ++i) max_w = std::max(max_w, t.at(r, t.column("omega_" + std::to_string(i))));
+    for (int i = 0; i < 4; ++i)
+      max_w = std::max(max_w, t.at(r, t.column("omega_" + std::to_string(i))));
   }
   // Rotor speeds stay inside what the stand map can produce on a 1S battery.
   EXPECT_GT(max_w, stand.min_speed_rad_s);

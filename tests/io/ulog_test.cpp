@@ -1,7 +1,7 @@
 // Tests of the PX4 ULog reader (include/dronetwin/io/ulog.hpp) on a real PX4 v1.9 flight log
-// (tests/data/real/px4-ulog-rs/esc_status_log.ulg, MIT, Auterion / px4-ulog-rs authors): topic list,
-// message counts against an independent scan of the message headers, physical plausibility, and
-// truncated / corrupted copies rejected with the byte offset of the bad message.
+// (tests/data/real/px4-ulog-rs/esc_status_log.ulg, MIT, Auterion / px4-ulog-rs authors): topic
+// list, message counts against an independent scan of the message headers, physical plausibility,
+// and truncated / corrupted copies rejected with the byte offset of the bad message.
 #include "dronetwin/io/ulog.hpp"
 
 #include <gtest/gtest.h>
@@ -193,7 +193,8 @@ TEST_F(ULogCorrupt, TruncatedInsideAHeader) {
   std::vector<std::uint8_t> cut(bytes_.begin(), bytes_.begin() + static_cast<long>(h.offset + 2));
   const std::string e = error_of([&] { (void)read_ulog(write("cut2.ulg", cut)); });
   EXPECT_NE(e.find("byte " + std::to_string(h.offset) + ": truncated message header"),
-            std::string::npos) << e;
+            std::string::npos)
+      << e;
 }
 
 TEST_F(ULogCorrupt, BadTypeByteAndUnknownMsgId) {
@@ -202,14 +203,16 @@ TEST_F(ULogCorrupt, BadTypeByteAndUnknownMsgId) {
   bad[h.offset + 2] = 0x07;
   std::string e = error_of([&] { (void)read_ulog(write("type.ulg", bad)); });
   EXPECT_NE(e.find("byte " + std::to_string(h.offset) + ": invalid message type"),
-            std::string::npos) << e;
+            std::string::npos)
+      << e;
 
   bad = bytes_;
   bad[h.offset + 3] = 0xFF;  // msg_id 0xFFxx: never subscribed
   bad[h.offset + 4] = 0xFF;
   e = error_of([&] { (void)read_ulog(write("id.ulg", bad)); });
   EXPECT_NE(e.find("byte " + std::to_string(h.offset) + ": data message for msg_id 65535"),
-            std::string::npos) << e;
+            std::string::npos)
+      << e;
 }
 
 TEST_F(ULogCorrupt, BadMagicAndShortFile) {

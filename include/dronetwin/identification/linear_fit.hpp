@@ -26,7 +26,7 @@ struct LinearFit {
   std::vector<std::string> names;
   std::vector<double> coefficients;
   std::vector<double> std_errors;
-  double residual_rms = 0.0;       ///< sqrt(mean r^2) over the rows used
+  double residual_rms = 0.0;  ///< sqrt(mean r^2) over the rows used
   std::size_t num_points = 0;
   int solver_iterations = 0;
   /// A p for new rows (A with the same columns).

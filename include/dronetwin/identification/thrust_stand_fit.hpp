@@ -50,19 +50,20 @@ struct ThrustStandOptions {
 
 struct ThrustStandFit {
   std::string source;
-  double tare_g = 0.0;             ///< mean load-cell reading at rest (0 if not subtracted)
+  double tare_g = 0.0;  ///< mean load-cell reading at rest (0 if not subtracted)
   std::size_t tare_rows = 0;
-  LinearFit thrust;                ///< K1, K2, K3 of Eq. 2.22, per motor (N, rad/s)
-  LinearFit speed_map_fit;         ///< a, b of w = a u + b
-  LinearFit speed_map_quadratic;   ///< c2, c1, c0 of w = c2 u^2 + c1 u + c0 (for comparison)
+  LinearFit thrust;               ///< K1, K2, K3 of Eq. 2.22, per motor (N, rad/s)
+  LinearFit speed_map_fit;        ///< a, b of w = a u + b
+  LinearFit speed_map_quadratic;  ///< c2, c1, c0 of w = c2 u^2 + c1 u + c0 (for comparison)
   SpeedMap speed_map;
   /// Mean speed of each motor over the rows used, divided by the mean of all four.
   std::array<double, 4> motor_speed_ratio{};
-  double min_speed_rad_s = 0.0;    ///< lowest / highest mean rotor speed in the rows used
+  double min_speed_rad_s = 0.0;  ///< lowest / highest mean rotor speed in the rows used
   double max_speed_rad_s = 0.0;
-  double max_thrust_N = 0.0;       ///< per motor, highest tare-corrected thrust in the rows used
+  double max_thrust_N = 0.0;  ///< per motor, highest tare-corrected thrust in the rows used
 };
 
-ThrustStandFit fit_thrust_stand(const ThrustStandData& data, const ThrustStandOptions& options = {});
+ThrustStandFit fit_thrust_stand(const ThrustStandData& data,
+                                const ThrustStandOptions& options = {});
 
 }  // namespace dronetwin

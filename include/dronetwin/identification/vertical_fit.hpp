@@ -38,12 +38,12 @@ struct VerticalFitOptions {
 };
 
 struct VerticalFitResult {
-  LinearFit fit;                  ///< "c" (1/kg) and, with fit_drag, "d" (1/s)
-  double mass_kg = 0.0;           ///< 1 / c
-  double mass_std_error_kg = 0.0; ///< se(c) / c^2
+  LinearFit fit;                   ///< "c" (1/kg) and, with fit_drag, "d" (1/s)
+  double mass_kg = 0.0;            ///< 1 / c
+  double mass_std_error_kg = 0.0;  ///< se(c) / c^2
   double prior_mass_kg = 0.0;
   std::size_t num_train = 0, num_test = 0;
-  double t_split_s = 0.0;         ///< first held-out sample time
+  double t_split_s = 0.0;  ///< first held-out sample time
   double rms_train_m_s2 = 0.0;
   double rms_test_m_s2 = 0.0;        ///< held-out residual with the fitted c, d
   double rms_test_prior_m_s2 = 0.0;  ///< held-out residual with c = 1 / prior mass, d = 0

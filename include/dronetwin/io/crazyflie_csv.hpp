@@ -28,9 +28,9 @@ namespace dronetwin {
 
 struct ThrustStandData {
   std::string source;
-  std::vector<double> weight_g;  ///< total thrust of all four motors, grams (load cell)
-  std::vector<double> pwm;       ///< 0..65535, applied to all four motors
-  std::vector<double> vbat_V;    ///< battery voltage under load
+  std::vector<double> weight_g;            ///< total thrust of all four motors, grams (load cell)
+  std::vector<double> pwm;                 ///< 0..65535, applied to all four motors
+  std::vector<double> vbat_V;              ///< battery voltage under load
   std::array<std::vector<double>, 4> rpm;  ///< per motor, revolutions per minute
   std::vector<double> current_A;
   std::vector<double> power_W;
@@ -42,14 +42,14 @@ ThrustStandData read_thrust_stand_csv(const std::string& path);
 
 struct CrazyPadFlight {
   std::string source;
-  std::vector<double> t_s;                 ///< timestamp_ms / 1000 (time since boot)
-  std::array<std::vector<double>, 4> pwm;  ///< pwm.m1_pwm .. m4_pwm, 0..65535 (motor M1..M4)
-  std::vector<double> vbat_V;              ///< pm.vbatMV / 1000
-  std::array<std::vector<double>, 3> pos_m;      ///< stateEstimate.x, y, z (world)
-  std::array<std::vector<double>, 3> vel_m_s;    ///< stateEstimate.vx, vy, vz (world)
-  std::array<std::vector<double>, 3> acc_g;      ///< stateEstimate.ax, ay, az: g, world, no gravity
-  std::vector<double> roll_deg;            ///< stateEstimate.roll
-  std::vector<double> yaw_deg;             ///< stateEstimate.yaw
+  std::vector<double> t_s;                     ///< timestamp_ms / 1000 (time since boot)
+  std::array<std::vector<double>, 4> pwm;      ///< pwm.m1_pwm .. m4_pwm, 0..65535 (motor M1..M4)
+  std::vector<double> vbat_V;                  ///< pm.vbatMV / 1000
+  std::array<std::vector<double>, 3> pos_m;    ///< stateEstimate.x, y, z (world)
+  std::array<std::vector<double>, 3> vel_m_s;  ///< stateEstimate.vx, vy, vz (world)
+  std::array<std::vector<double>, 3> acc_g;    ///< stateEstimate.ax, ay, az: g, world, no gravity
+  std::vector<double> roll_deg;                ///< stateEstimate.roll
+  std::vector<double> yaw_deg;                 ///< stateEstimate.yaw
   std::size_t rows() const { return t_s.size(); }
 };
 
