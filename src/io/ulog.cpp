@@ -185,6 +185,7 @@ class Parser {
   std::map<std::uint16_t, Subscription> subscriptions_;
   std::map<std::pair<std::string, int>, std::size_t> topic_index_;
   bool data_section_ = false;
+  std::size_t appended_offset_ = 0;  // 0: no appended data
 };
 
 std::size_t Parser::format_size(const std::string& name, std::size_t at, int depth) {
@@ -412,6 +413,14 @@ ULog Parser::run() {
   std::size_t pos = 16;
   bool first = true;
   while (pos < b_.size()) {
+    // Appended data (flag bits): the main stream may stop in the middle of a message; whatever
+    // crosses the appended offset is cut off and reading resumes there.
+    if (appended_offset_ > pos &&
+        (appended_offset_ - pos < 3 ||
+         pos + 3 + load<std::uint16_t>(b_.data() + pos) > appended_offset_)) {
+      pos = appended_offset_;
+      continue;
+    }
     if (b_.size() - pos < 3) {
       fail(pos, "truncated message header (", b_.size() - pos, " bytes left, need 3)");
     }
@@ -432,6 +441,14 @@ ULog Parser::run() {
         if ((p[8] & ~1u) != 0) fail(at, "unknown incompatible flag bits in byte 0: ", int(p[8]));
         for (int i = 1; i < 8; ++i) {
           if (p[8 + i] != 0) fail(at, "unknown incompatible flag bits in byte ", i);
+        }
+        if (p[8] & 1u) {
+          const auto off = load<std::uint64_t>(p + 16);
+          if (off != 0 && (off < pos || off > b_.size())) {
+            fail(at, "appended-data offset ", off, " outside the file (", pos, "..", b_.size(),
+                 ")");
+          }
+          appended_offset_ = static_cast<std::size_t>(off);
         }
         break;
       }

@@ -18,8 +18,9 @@
 //
 // Traps: uint64/int64 values above 2^53 lose precision as doubles (only timestamps get that
 // large, and they are kept exactly in `timestamp_us`). A topic that was subscribed but never
-// logged has no table. Appended data (incompat flag bit 0) is read where it stands in the stream;
-// a file with other unknown incompatible flags is rejected, as the format requires.
+// logged has no table. Appended data (incompat flag bit 0): a message of the main stream that
+// crosses the first appended offset is dropped and reading resumes at that offset; a file with
+// other unknown incompatible flags is rejected, as the format requires.
 //
 // Errors: InvalidArgument naming the file, the byte offset of the offending message, and what was
 // expected (bad magic, truncated message, unknown format or message id, inconsistent sizes).
