@@ -2,6 +2,7 @@
 //
 //   dronetwin run EXPERIMENT.yaml --out DIR [--seed N] [--duration S] [--real-time] [--quiet]
 //   dronetwin info MODEL.yaml
+//   dronetwin import crazypad|ulog ...; dronetwin identify stand|vertical ...  (real_data_commands.hpp)
 //   dronetwin --version
 //
 // Exit codes: 0 success, 1 internal error, 2 bad input (malformed file, bad option; the message
@@ -32,6 +33,7 @@
 #include "dronetwin/io/experiment.hpp"
 #include "dronetwin/io/model_loader.hpp"
 #include "dronetwin/io/run_experiment.hpp"
+#include "real_data_commands.hpp"
 
 namespace {
 
@@ -248,11 +250,16 @@ int main(int argc, char** argv) {
       ->required();
   plot_cmd->add_option("--out,-o", plot_out, "Where to write the PNGs (default: run_dir)");
 
+  dronetwin::cli::RealDataCommands real_data;
+  dronetwin::cli::register_real_data_commands(app, real_data);
+
   // CLI11 reports a mistyped command as "A subcommand is required"; name it instead.
   if (argc > 1 && argv[1][0] != '-') {
     const std::string_view command = argv[1];
-    if (command != "run" && command != "info" && command != "plot") {
-      std::cerr << "error: unknown command '" << command << "' (valid commands: run, info, plot)\n"
+    if (command != "run" && command != "info" && command != "plot" && command != "import" &&
+        command != "identify") {
+      std::cerr << "error: unknown command '" << command
+                << "' (valid commands: run, info, plot, import, identify)\n"
                 << "Run with --help for more information.\n";
       return kExitBadInput;
     }
@@ -271,6 +278,9 @@ int main(int argc, char** argv) {
       return run_command(run);
     }
     if (*plot_cmd) return plot_command(plot_dir, plot_out);
+    if (dronetwin::cli::real_data_command_selected(real_data)) {
+      return dronetwin::cli::run_real_data_command(real_data);
+    }
     return info_command(model_path);
   } catch (const InvalidArgument& e) {
     std::cerr << "error: " << e.what() << "\n";
