@@ -210,7 +210,8 @@ TEST(ULogSynthetic, DataAfterRemoveAndBadSizesAreErrors) {
   // A data message shorter than its fields need.
   bytes = synthetic_log();
   bytes[last] = static_cast<std::uint8_t>(bytes[last] - 5);  // claim 5 fewer bytes
-  bytes.resize(bytes.size() - 5);
+  // erase, not resize: GCC 12 cannot prove size() >= 5 and warns about a huge memset.
+  bytes.erase(bytes.end() - 5, bytes.end());
   e = error_of([&] { (void)parse_ulog(bytes, "y.ulg"); });
   EXPECT_NE(e.find("y.ulg: byte " + std::to_string(last) + ": data message of 'all' has 71 bytes"),
             std::string::npos)
