@@ -33,6 +33,7 @@
 #include "dronetwin/io/experiment.hpp"
 #include "dronetwin/io/model_loader.hpp"
 #include "dronetwin/io/run_experiment.hpp"
+#include "fit_command.hpp"
 #include "real_data_commands.hpp"
 
 namespace {
@@ -252,14 +253,16 @@ int main(int argc, char** argv) {
 
   dronetwin::cli::RealDataCommands real_data;
   dronetwin::cli::register_real_data_commands(app, real_data);
+  dronetwin::cli::FitCommand fit;
+  dronetwin::cli::register_fit_command(app, fit);
 
   // CLI11 reports a mistyped command as "A subcommand is required"; name it instead.
   if (argc > 1 && argv[1][0] != '-') {
     const std::string_view command = argv[1];
     if (command != "run" && command != "info" && command != "plot" && command != "import" &&
-        command != "identify") {
+        command != "identify" && command != "fit") {
       std::cerr << "error: unknown command '" << command
-                << "' (valid commands: run, info, plot, import, identify)\n"
+                << "' (valid commands: run, info, plot, import, identify, fit)\n"
                 << "Run with --help for more information.\n";
       return kExitBadInput;
     }
@@ -278,6 +281,7 @@ int main(int argc, char** argv) {
       return run_command(run);
     }
     if (*plot_cmd) return plot_command(plot_dir, plot_out);
+    if (*fit.cmd) return dronetwin::cli::run_fit_command(fit);
     if (dronetwin::cli::real_data_command_selected(real_data)) {
       return dronetwin::cli::run_real_data_command(real_data);
     }
