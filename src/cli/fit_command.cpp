@@ -56,6 +56,9 @@ void register_fit_command(CLI::App& app, FitCommand& c) {
   c.cmd->add_option("--max-windows", c.max_windows, "At most this many output-error windows (200)");
   c.cmd->add_option("--disturbances", c.disturbances,
                     "Terms the flight was flown with: all (default), none, or a list");
+  c.cmd->add_option("--min-height", c.min_height_m,
+                    "Leave out rows below this height, m (take-off and landing in logs without "
+                    "in_contact)");
   c.cmd->add_flag("--true-state", c.true_state,
                   "Fit to the true state columns even when the log has measured ones");
 }
@@ -72,23 +75,30 @@ int run_fit_command(const FitCommand& c) {
   o.window_s = c.window_s;
   o.max_windows = c.max_windows;
   o.switches = parse_switches(c.disturbances);
+  o.min_height_m = c.min_height_m;
   const FlightData data = flight_data_from_log(read_csv_log(c.log), model.num_rotors(), !c.true_state);
   const FitResult r = fit_model(model, data, o);
   std::cout << "fit " << c.log << " (" << (data.used_measured ? "measured" : "true") << " state) to "
             << c.model << "\n"
             << format_fit_report(r);
-  VehicleSpec spec = r.fitted_spec;
-  spec.name = model.name() + "_fitted";
-  save_vehicle_spec(spec, c.out);
-  std::cout << "wrote " << c.out;
   if (!c.report.empty()) {
     std::ofstream out(c.report);
     require(static_cast<bool>(out), c.report, ": cannot open for writing");
     out << fit_result_to_json(r);
     require(static_cast<bool>(out), c.report, ": write failed");
-    std::cout << ", " << c.report;
+    std::cout << "wrote " << c.report << "\n";
   }
-  std::cout << "\n";
+  VehicleSpec spec = r.fitted_spec;
+  spec.name = model.name() + "_fitted";
+  try {
+    (void)VehicleModel(spec);
+  } catch (const InvalidArgument& e) {
+    std::cerr << "error: the estimates do not make a valid model, so " << c.out
+              << " was not written: " << e.what() << "\n";
+    return 1;
+  }
+  save_vehicle_spec(spec, c.out);
+  std::cout << "wrote " << c.out << "\n";
   return 0;
 }
 

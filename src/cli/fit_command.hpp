@@ -4,10 +4,12 @@
 //   dronetwin fit --model models/qdrone2.yaml --log out/id/log.csv --params thrust,inertia
 //                 --out fitted.yaml [--report fit.json] [--method both|equation|output]
 //                 [--holdout 0.2] [--true-state] [--window 0.05] [--max-windows 200]
-//                 [--disturbances all|none|rotor_drag,body_drag,...]
+//                 [--disturbances all|none|rotor_drag,body_drag,...] [--min-height M]
 //
 // Prints the estimates with standard errors, the residuals before/after on the fitted and the
-// held-out part, and the warnings; writes the fitted model file (and the report as JSON).
+// held-out part, and the warnings; writes the fitted model file (and the report as JSON). A fit
+// whose estimates do not make a valid model (negative drag, say) writes the report but not the
+// model, and exits with 1.
 #include <CLI/CLI.hpp>
 #include <string>
 
@@ -16,7 +18,7 @@ namespace dronetwin::cli {
 struct FitCommand {
   CLI::App* cmd = nullptr;
   std::string model, log, params, out, report, method = "both", disturbances = "all";
-  double holdout = 0.2, window_s = 0.05;
+  double holdout = 0.2, window_s = 0.05, min_height_m = -1e300;
   int max_windows = 200;
   bool true_state = false;
 };

@@ -28,7 +28,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Split {
   std::vector<int> fit, holdout;  // interval start rows k (interval k -> k+1)
-  std::size_t gaps = 0, contact_rows = 0;
+  std::size_t gaps = 0, contact_rows = 0, excluded_rows = 0;
   double median_dt_s = 0.0;
 };
 
@@ -42,13 +42,19 @@ Split split_intervals(const FlightData& d, const FitOptions& o) {
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
   s.median_dt_s = sorted[sorted.size() / 2];
   for (char c : d.in_contact) s.contact_rows += c ? 1 : 0;
+  std::vector<char> excluded(n, 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    excluded[k] = d.state[k][2] < o.min_height_m ||
+                  d.rotor_speed_rad_s[k].minCoeff() < o.min_rotor_speed_rad_s;
+    s.excluded_rows += excluded[k] ? 1 : 0;
+  }
   const double t_split = d.t_s.front() + (1.0 - o.holdout_fraction) * (d.t_s.back() - d.t_s.front());
   for (std::size_t k = 0; k + 1 < n; ++k) {
     if (dts[k] > o.max_gap_factor * s.median_dt_s) {
       ++s.gaps;
       continue;
     }
-    if (d.in_contact[k] || d.in_contact[k + 1]) continue;
+    if (d.in_contact[k] || d.in_contact[k + 1] || excluded[k] || excluded[k + 1]) continue;
     (d.t_s[k + 1] <= t_split ? s.fit : s.holdout).push_back(static_cast<int>(k));
   }
   return s;
@@ -118,11 +124,19 @@ struct EquationError {
       const RotorVector& speeds = d->rotor_speed_rad_s[k];  // held over the interval
       const StateVectorT<T> f0 = pm->derivative<T, double>(th.data(), d->state[k], speeds);
       const StateVectorT<T> f1 = pm->derivative<T, double>(th.data(), d->state[k + 1], speeds);
+      const bool accelerometer = !d->specific_force_W_m_s2.empty();
       for (int a = 0; a < 3; ++a) {
-        const double dv = (d->state[k + 1][3 + a] - d->state[k][3 + a]) / dt;
-        const double dw = (d->state[k + 1][10 + a] - d->state[k][10 + a]) / dt;
+        const double dv =
+            accelerometer ? 0.5 * (d->specific_force_W_m_s2[k][a] + d->specific_force_W_m_s2[k + 1][a]) +
+                                pm->environment().gravity_W_m_s2[a]
+                          : (d->state[k + 1][3 + a] - d->state[k][3 + a]) / dt;
         res[6 * i + static_cast<std::size_t>(a)] = w.linear * (dv - T(0.5) * (f0[3 + a] + f1[3 + a]));
-        res[6 * i + 3 + static_cast<std::size_t>(a)] = w.angular * (dw - T(0.5) * (f0[10 + a] + f1[10 + a]));
+        if (d->has_body_rates) {
+          const double dw = (d->state[k + 1][10 + a] - d->state[k][10 + a]) / dt;
+          res[6 * i + 3 + static_cast<std::size_t>(a)] = w.angular * (dw - T(0.5) * (f0[10 + a] + f1[10 + a]));
+        } else {
+          res[6 * i + 3 + static_cast<std::size_t>(a)] = T(0.0);  // no rates logged: channel unused
+        }
       }
     }
     return true;
@@ -248,6 +262,7 @@ Channels evaluate(const Setup& s, const std::vector<double>& block, const std::v
       }
     }
     c.n_eq = 3 * intervals.size();
+    if (!s.d->has_body_rates) c.ang = kNaN;
   }
   if (motor) {
     MotorLag f{s.d, &s.map, s.model, s.tau_rise_unit, s.tau_fall_unit, intervals, Weights{}};
@@ -418,11 +433,14 @@ FlightData flight_data_from_log(const LogTable& log, int num_rotors, bool prefer
     return std::find(log.columns.begin(), log.columns.end(), name) != log.columns.end();
   };
   d.used_measured = prefer_measured && has("meas_x");
+  const std::string prefix = d.used_measured ? "meas_" : "";
+  d.has_body_rates = has(prefix + "wx");
+  const int state_columns = d.has_body_rates ? kStateSize : 10;
   std::array<std::size_t, kStateSize> cs{};
-  for (int i = 0; i < kStateSize; ++i) {
-    cs[static_cast<std::size_t>(i)] =
-        log.column((d.used_measured ? std::string("meas_") : std::string()) + kStateNames[i]);
-  }
+  for (int i = 0; i < state_columns; ++i) cs[static_cast<std::size_t>(i)] = log.column(prefix + kStateNames[i]);
+  const bool has_acc = has("acc_x");
+  std::array<std::size_t, 3> ca{};
+  if (has_acc) ca = {log.column("acc_x"), log.column("acc_y"), log.column("acc_z")};
   const std::size_t ct = log.column("t");
   std::vector<std::size_t> cw, cr;
   for (int i = 0; i < num_rotors; ++i) cw.push_back(log.column("omega_" + std::to_string(i)));
@@ -438,8 +456,8 @@ FlightData flight_data_from_log(const LogTable& log, int num_rotors, bool prefer
     require(std::isfinite(t), log.source, ": row ", row + 1, ": t is not finite");
     require(d.t_s.empty() || t > d.t_s.back(), log.source, ": row ", row + 1, ": t = ", t,
             " does not increase (previous ", d.t_s.empty() ? 0.0 : d.t_s.back(), ")");
-    StateVector x;
-    for (int i = 0; i < kStateSize; ++i) {
+    StateVector x = StateVector::Zero();
+    for (int i = 0; i < state_columns; ++i) {
       x[i] = log.at(row, cs[static_cast<std::size_t>(i)]);
       require(std::isfinite(x[i]), log.source, ": row ", row + 1, ": column ",
               log.columns[cs[static_cast<std::size_t>(i)]], " is not finite");
@@ -459,6 +477,21 @@ FlightData flight_data_from_log(const LogTable& log, int num_rotors, bool prefer
     d.rotor_speed_rad_s.push_back(w);
     if (has_ref) d.rotor_reference_rad_s.push_back(ref);
     d.in_contact.push_back(has_contact && log.at(row, cc) != 0.0 ? 1 : 0);
+    if (has_acc) {
+      const Vec3 a(log.at(row, ca[0]), log.at(row, ca[1]), log.at(row, ca[2]));
+      require(a.allFinite(), log.source, ": row ", row + 1, ": acc_x/y/z is not finite");
+      d.specific_force_W_m_s2.push_back(a);
+    }
+  }
+  if (!d.has_body_rates && n >= 2) {
+    // w_B from successive attitudes: q_{k+1} = q_k (x) exp(w dt / 2), so w ~ 2 vec(q_k^-1 q_{k+1}) / dt.
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t a = k + 1 < n ? k : k - 1;
+      const Vec4 qa = d.state[a].segment<4>(6), qb = d.state[a + 1].segment<4>(6);
+      Vec4 e = math::multiply<double>(Vec4(qa[0], -qa[1], -qa[2], -qa[3]), qb);
+      if (e[0] < 0) e = -e;
+      d.state[k].segment<3>(10) = 2.0 * e.segment<3>(1) / (d.t_s[a + 1] - d.t_s[a]);
+    }
   }
   return d;
 }
@@ -498,6 +531,16 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
     require(motor.tau_rise_unit > 0.0 && motor.tau_fall_unit > 0.0, model.spec().source,
             ": tau_rise/tau_fall can only be fitted for a model with motor lag (time constants > 0)");
   }
+  if (!data.has_body_rates) {
+    for (ModelParameter p : o.parameters) {
+      const bool angular_only = p == ModelParameter::kInertiaXX || p == ModelParameter::kInertiaYY ||
+                                p == ModelParameter::kInertiaZZ || p == ModelParameter::kYawMomentPerThrust ||
+                                p == ModelParameter::kDragMoment || p == ModelParameter::kRollingMoment;
+      require(!angular_only, data.source, ": fitting ", parameter_name(p),
+              " needs the body rates (columns wx, wy, wz are missing); it acts on the angular "
+              "accelerations only");
+    }
+  }
   motor.use_motor = any_motor;
   body.use_eq = any_body && o.method != FitMethod::kOutputError;
   body.use_out = any_body && o.method != FitMethod::kEquationError;
@@ -507,6 +550,7 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
   r.rows = data.t_s.size();
   r.gaps = split.gaps;
   r.contact_rows = split.contact_rows;
+  r.excluded_rows = split.excluded_rows;
   r.median_dt_s = split.median_dt_s;
   r.intervals_used = split.fit.size();
   r.intervals_holdout = split.holdout.size();
@@ -522,6 +566,10 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
   require(!body.use_out || !fit_windows.empty(), data.source, ": no stretch of ", body.window_len,
           " gap-free airborne intervals for an output-error window of ", o.window_s, " s");
   r.windows = fit_windows.size();
+  if (!data.has_body_rates) {
+    r.warnings.push_back("the log has no body rates: they were derived from successive attitudes and the "
+                         "angular accelerations were not fitted");
+  }
 
   struct SubFit {
     std::vector<double> initial, block;
@@ -678,7 +726,8 @@ std::string format_fit_report(const FitResult& r) {
   std::ostringstream out;
   out << "rows " << r.rows << ", median dt " << fmt(r.median_dt_s, 4) << " s, intervals fitted "
       << r.intervals_used << ", held out " << r.intervals_holdout << ", gaps " << r.gaps
-      << ", rows in contact " << r.contact_rows << ", output-error windows " << r.windows << "\n";
+      << ", rows in contact " << r.contact_rows << ", low or rotor-stopped rows left out " << r.excluded_rows
+      << ", output-error windows " << r.windows << "\n";
   out << "Ceres: " << r.iterations << " iterations, " << r.termination << ", "
       << fmt(r.solve_time_s, 3) << " s\n\n";
   char line[256];
@@ -756,6 +805,7 @@ std::string fit_result_to_json(const FitResult& r) {
       << ",\n  \"holdout_after\": " << json_stats(r.holdout_after) << ",\n  \"rows\": " << r.rows
       << ",\n  \"intervals_used\": " << r.intervals_used << ",\n  \"intervals_holdout\": " << r.intervals_holdout
       << ",\n  \"gaps\": " << r.gaps << ",\n  \"contact_rows\": " << r.contact_rows
+      << ",\n  \"excluded_rows\": " << r.excluded_rows
       << ",\n  \"windows\": " << r.windows << ",\n  \"median_dt_s\": " << json_number(r.median_dt_s)
       << ",\n  \"iterations\": " << r.iterations << ",\n  \"termination\": " << json_text(r.termination)
       << ",\n  \"solve_time_s\": " << json_number(r.solve_time_s) << "\n}\n";

@@ -22,14 +22,16 @@
 //   FitResult r = fit_model(model, data, o);
 //   save_vehicle_spec(r.fitted_spec, "fitted.yaml");
 //
-// Rows in ground contact (in_contact = 1) and intervals across a gap in time (dt more than
-// FitOptions::max_gap_factor times the median) are left out. The last holdout_fraction of the
+// Rows in ground contact (in_contact = 1), below FitOptions::min_height_m or with a rotor
+// (nearly) stopped, and intervals across a gap in time (dt more than FitOptions::max_gap_factor
+// times the median) are left out. The last holdout_fraction of the
 // intervals is not fitted; FitResult reports the residuals there before and after.
 //
 // Trap: accelerations depend on forces / mass, so mass and a complete set of force coefficients
 // (e.g. mass with thrust) cannot be fitted together: the fit then warns of a correlation near 1.
 // Fix the ones you know (thrust from a stand, mass from a scale) and fit the rest.
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -57,11 +59,18 @@ struct FlightData {
   std::vector<char> in_contact;
   /// True when the state came from the meas_* columns (what a real sensor log holds).
   bool used_measured = false;
+  /// False when the log has no wx, wy, wz: the rates are then derived from successive
+  /// quaternions and the angular-acceleration residuals are not used.
+  bool has_body_rates = true;
+  /// World-frame specific force dv/dt - g (acc_x, acc_y, acc_z, what an accelerometer reads
+  /// turned into world axes) when the log has it; the equation error then uses it instead of
+  /// differencing the velocity. Empty otherwise.
+  std::vector<Vec3> specific_force_W_m_s2;
 };
 
 /// Extracts a FlightData from a log. Needs t, the state (meas_x..meas_wz when present and
-/// `prefer_measured`, else x..wz) and omega_0..omega_{N-1}; omega_ref_* and in_contact are used
-/// when present. InvalidArgument naming the log and the missing column, or a row whose time does
+/// `prefer_measured`, else x..wz; the rates may be missing) and omega_0..omega_{N-1};
+/// omega_ref_*, in_contact and acc_x..acc_z are used when present. InvalidArgument naming the log and the missing column, or a row whose time does
 /// not increase or whose values are not finite.
 FlightData flight_data_from_log(const LogTable& log, int num_rotors, bool prefer_measured = true);
 
@@ -77,6 +86,12 @@ struct FitOptions {
   double holdout_fraction = 0.2;
   /// An interval longer than this times the median interval is a gap.
   double max_gap_factor = 1.5;
+  /// Rows below this height (m) are left out, like rows in contact: a real log without an
+  /// in_contact column still holds take-off and landing, where the ground pushes.
+  double min_height_m = -std::numeric_limits<double>::infinity();
+  /// Rows with a rotor slower than this (rad/s) are left out (motors off or stalling: the
+  /// thrust curve is not meant for them).
+  double min_rotor_speed_rad_s = 1.0;
   /// Output error: window length, s, and at most this many windows (spread evenly).
   double window_s = 0.05;
   int max_windows = 200;
@@ -112,6 +127,8 @@ struct FitResult {
   std::vector<std::string> warnings;
   ResidualStats fit_before, fit_after, holdout_before, holdout_after;
   std::size_t rows = 0, intervals_used = 0, intervals_holdout = 0, gaps = 0, contact_rows = 0;
+  /// Rows left out for being below min_height_m or having a rotor below min_rotor_speed_rad_s.
+  std::size_t excluded_rows = 0;
   std::size_t windows = 0;
   double median_dt_s = 0.0;
   int iterations = 0;

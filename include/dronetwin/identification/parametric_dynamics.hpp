@@ -38,6 +38,7 @@ class ParametricModel {
                   const Environment& environment);
 
   int num_rotors() const { return num_rotors_; }
+  const Environment& environment() const { return environment_; }
   /// theta that reproduces the model it was built from (1, or 0 for coefficients that are 0).
   const Theta& initial_theta() const { return initial_theta_; }
   /// Physical value (mean over rotors for per-rotor coefficients) of parameter p at theta_p.
