@@ -98,4 +98,5 @@ PYBIND11_MODULE(_core, m) {
   dp::bind_control(m);
   dp::bind_io(m);
   dp::bind_real_data(m);
+  dp::bind_fit(m);
 }
