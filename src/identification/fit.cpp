@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/dynamics/motor.hpp"
 #include "dronetwin/identification/parametric_dynamics.hpp"
 #include "dronetwin/math/quaternion.hpp"
 
@@ -161,9 +162,8 @@ struct MotorLag {
       const auto k = static_cast<std::size_t>(intervals[i]);
       const double dt = d->t_s[k + 1] - d->t_s[k];
       for (int r = 0; r < nr; ++r) {
-        const RotorParams& rp = model->rotor(r);
         const double w0 = d->rotor_speed_rad_s[k][r];
-        const double ref = std::clamp(d->rotor_reference_rad_s[k][r], rp.min_speed_rad_s, rp.max_speed_rad_s);
+        const double ref = clamp_speed(model->rotor(r), d->rotor_reference_rad_s[k][r]);  // as advance_motors
         const T tau = ref > w0 ? tau_rise : tau_fall;
         const T a = exp(-T(dt) / tau);
         res[i * static_cast<std::size_t>(nr) + static_cast<std::size_t>(r)] =
