@@ -1,4 +1,4 @@
-// CSV run logs (format in include/dronetwin/io/csv_log.hpp and docs/experiment-format.md).
+// CSV run logs (format in include/dronetwin/io/csv_log.hpp and docs/log-format.md).
 #include "dronetwin/io/csv_log.hpp"
 
 #include <cerrno>
@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 #include <system_error>
+#include <utility>
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
@@ -22,34 +23,106 @@ constexpr std::size_t kMaxFieldBytes = 32;
 std::string errno_text() {
   return errno != 0 ? std::generic_category().message(errno) : std::string("unknown error");
 }
+
+constexpr const char* kAxes[] = {"x", "y", "z"};
+
+/// The 13 state columns: name, unit, meaning.
+struct StateColumn {
+  const char* name;
+  const char* unit;
+  const char* meaning;
+};
+constexpr StateColumn kState[] = {
+    {"x", "m", "position p_W x, world frame (z up)"},
+    {"y", "m", "position p_W y, world frame (z up)"},
+    {"z", "m", "position p_W z (height), world frame (z up)"},
+    {"vx", "m/s", "velocity v_W x, world frame"},
+    {"vy", "m/s", "velocity v_W y, world frame"},
+    {"vz", "m/s", "velocity v_W z, world frame"},
+    {"qw", "1", "attitude quaternion q_WB (body to world), w component"},
+    {"qx", "1", "attitude quaternion q_WB (body to world), x component"},
+    {"qy", "1", "attitude quaternion q_WB (body to world), y component"},
+    {"qz", "1", "attitude quaternion q_WB (body to world), z component"},
+    {"wx", "rad/s", "body rate w_B x, body frame"},
+    {"wy", "rad/s", "body rate w_B y, body frame"},
+    {"wz", "rad/s", "body rate w_B z, body frame"},
+};
+
+bool ends_with(std::string_view s, std::string_view suffix) {
+  return s.size() > suffix.size() && s.substr(s.size() - suffix.size()) == suffix;
+}
+
+/// Unit of a controller diagnostic from its name's suffix (longest suffixes first).
+std::string diagnostic_unit(std::string_view name) {
+  static constexpr std::pair<std::string_view, std::string_view> kSuffixes[] = {
+      {"_rad_s", "rad/s"}, {"_m_s", "m/s"}, {"_ms", "ms"}, {"_Nm", "N m"},
+      {"_rad", "rad"},     {"_s", "s"},     {"_m", "m"},   {"_N", "N"}};
+  for (const auto& [suffix, unit] : kSuffixes)
+    if (ends_with(name, suffix)) return std::string(unit);
+  return "1";
+}
+
 }  // namespace
 
-std::vector<std::string> log_column_names(const LogLayout& layout) {
-  static constexpr const char* kState[] = {"x",  "y",  "z",  "vx", "vy", "vz", "qw",
-                                           "qx", "qy", "qz", "wx", "wy", "wz"};
-  std::vector<std::string> c;
-  c.emplace_back("t");
-  for (const char* s : kState) c.emplace_back(s);
-  for (int i = 0; i < layout.num_rotors; ++i) c.push_back("omega_" + std::to_string(i));
-  for (int i = 0; i < layout.num_rotors; ++i) c.push_back("omega_ref_" + std::to_string(i));
-  if (layout.measured)
-    for (const char* s : kState) c.push_back(std::string("meas_") + s);
-  c.emplace_back("in_contact");
-  c.emplace_back("crashed");
+std::vector<LogColumn> log_columns(const LogLayout& layout) {
+  std::vector<LogColumn> c;
+  c.push_back({"t", "s", "simulated time k dt_s of the row"});
+  for (const StateColumn& s : kState) c.push_back({s.name, s.unit, s.meaning});
+  for (int i = 0; i < layout.num_rotors; ++i) {
+    c.push_back({"omega_" + std::to_string(i), "rad/s",
+                 "achieved speed of rotor " + std::to_string(i) + " (after the motor lag)"});
+  }
+  for (int i = 0; i < layout.num_rotors; ++i) {
+    c.push_back({"omega_ref_" + std::to_string(i), "rad/s",
+                 "speed reference of rotor " + std::to_string(i) + " in effect from t on"});
+  }
+  if (layout.measured) {
+    for (const StateColumn& s : kState)
+      c.push_back({std::string("meas_") + s.name, s.unit,
+                   std::string("measured (OU noise added) ") + s.meaning});
+  }
+  c.push_back({"in_contact", "bool", "1 while the vehicle touches the ground"});
+  c.push_back({"crashed", "bool", "1 from the first crash on (too fast or too tilted a contact)"});
   if (layout.wrench_breakdown) {
     for (int k = 0; k < kNumTerms; ++k) {
       const std::string term(term_name(static_cast<Term>(k)));
-      for (const char* kind : {"F_", "M_"})
-        for (const char* axis : {"_x", "_y", "_z"}) c.push_back(kind + term + axis);
+      for (const char* axis : kAxes) {
+        c.push_back({"F_" + term + "_" + axis, "N",
+                     "force of the " + term + " term, body " + axis + " axis"});
+      }
+      for (const char* axis : kAxes) {
+        c.push_back(
+            {"M_" + term + "_" + axis, "N m",
+             "moment of the " + term + " term about the centre of mass, body " + axis + " axis"});
+      }
     }
   }
   if (layout.controller) {
-    for (const char* s : {"ref_x", "ref_y", "ref_z", "ref_yaw", "u_T", "u_tau_x", "u_tau_y",
-                          "u_tau_z", "saturated"})
-      c.emplace_back(s);
-    for (const std::string& d : layout.controller_diagnostics) c.push_back("ctrl_" + d);
+    for (const char* axis : kAxes) {
+      c.push_back({std::string("ref_") + axis, "m",
+                   std::string("reference position ") + axis + " at t, world frame"});
+    }
+    c.push_back({"ref_yaw", "rad", "reference yaw at t (as the reference gives it, not wrapped)"});
+    c.push_back({"u_T", "N", "collective thrust of the rotor command in effect from t on"});
+    for (const char* axis : kAxes) {
+      c.push_back(
+          {std::string("u_tau_") + axis, "N m",
+           std::string("body ") + axis + " torque of the rotor command in effect from t on"});
+    }
+    c.push_back({"saturated", "bool", "1 if the allocation of that command saturated"});
+    for (const std::string& d : layout.controller_diagnostics) {
+      c.push_back({"ctrl_" + d, diagnostic_unit(d),
+                   "controller diagnostic '" + d +
+                       "' of its most recent update (NaN: not applicable at that update)"});
+    }
   }
   return c;
+}
+
+std::vector<std::string> log_column_names(const LogLayout& layout) {
+  std::vector<std::string> names;
+  for (LogColumn& c : log_columns(layout)) names.push_back(std::move(c.name));
+  return names;
 }
 
 // ---- writer -----------------------------------------------------------------------------------

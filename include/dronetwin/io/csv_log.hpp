@@ -19,6 +19,9 @@
 // whether its allocation saturated)]. Bracketed groups are optional; the closed-loop group comes
 // last, so an open-loop log's columns are a prefix of the closed-loop log's with the same settings.
 //
+// log_columns() gives the same names with a unit and a one-line meaning each (written to the
+// log.json sidecar, io/log_metadata.hpp); the whole format is described in docs/log-format.md.
+//
 // Trap: the writer buffers; rows reach the file on flush(), close() or destruction. Errors on
 // close() throw; the destructor cannot, so close() explicitly when the file matters.
 
@@ -42,8 +45,24 @@ struct LogLayout {
   std::vector<std::string> controller_diagnostics = {};
 };
 
+/// One column of a log: its header name, its unit ("s", "m", "m/s", "1" (dimensionless, e.g. a
+/// quaternion component), "rad", "rad/s", "N", "N m", "bool" (0/1), "ms", ...) and what it holds.
+struct LogColumn {
+  std::string name;
+  std::string unit;
+  std::string meaning;
+
+  bool operator==(const LogColumn&) const = default;
+};
+
 /// The column names of a run log, in order (see the file comment).
 std::vector<std::string> log_column_names(const LogLayout& layout);
+
+/// The columns of a run log with units and meanings, in the order of log_column_names().
+/// A controller diagnostic ctrl_<name> takes its unit from the name's suffix (the project's
+/// naming convention: _ms, _s, _m, _m_s, _rad, _rad_s, _N, _Nm); any other name is "1" (a count,
+/// flag, code or dimensionless number).
+std::vector<LogColumn> log_columns(const LogLayout& layout);
 
 class CsvLogWriter {
  public:
