@@ -22,8 +22,11 @@
 #include "dronetwin/dynamics/ground.hpp"
 #include "dronetwin/io/controller_config.hpp"
 #include "dronetwin/io/csv_log.hpp"
+#include "dronetwin/io/log_metadata.hpp"
 #include "dronetwin/io/model_loader.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "json_writer.hpp"
+#include "yaml_strict.hpp"
 
 #ifndef DRONETWIN_VERSION
 #define DRONETWIN_VERSION "unknown"
@@ -251,85 +254,12 @@ void fill_row(const Simulator& sim, const LogSettings& log, const ControllerDriv
   if (controller != nullptr) k += controller->fill(sim, row.data() + k);
 }
 
-// ---- JSON -------------------------------------------------------------------------------------
-
-std::string json_string(std::string_view s) {
-  std::string out = "\"";
-  for (const char c : s) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(c));
-          out += buf;
-        } else {
-          out += c;
-        }
-    }
-  }
-  return out + "\"";
-}
-
-/// %.17g (round-trips); JSON has no NaN or infinity, so those become null.
-std::string json_number(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
-}
-
-template <class Vector>
-std::string json_array(const Vector& v) {
-  std::string out = "[";
-  for (Eigen::Index i = 0; i < v.size(); ++i) out += (i ? ", " : "") + json_number(v[i]);
-  return out + "]";
-}
-
-/// Writes "key": value pairs with two-space indentation.
-class JsonObject {
- public:
-  explicit JsonObject(int indent) : pad_(static_cast<std::size_t>(indent), ' ') {}
-  JsonObject& raw(std::string_view key, const std::string& value) {
-    text_ += (text_.empty() ? "" : ",\n") + pad_ + "  " + json_string(key) + ": " + value;
-    return *this;
-  }
-  JsonObject& str(std::string_view key, std::string_view v) { return raw(key, json_string(v)); }
-  JsonObject& num(std::string_view key, double v) { return raw(key, json_number(v)); }
-  JsonObject& integer(std::string_view key, long long v) { return raw(key, std::to_string(v)); }
-  JsonObject& boolean(std::string_view key, bool v) { return raw(key, v ? "true" : "false"); }
-  std::string done() const { return "{\n" + text_ + "\n" + pad_ + "}"; }
-
- private:
-  std::string pad_;
-  std::string text_;
-};
-
-void write_text(const fs::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  require(static_cast<bool>(out), path.string(), ": cannot open for writing");
-  out << text;
-  out.close();
-  require(static_cast<bool>(out), path.string(), ": error while writing");
-}
-
 }  // namespace
 
 std::string summary_to_json(const RunSummary& s) {
+  using io_detail::json_array;
+  using io_detail::json_number;
+  using io_detail::JsonObject;
   using namespace state_index;
   const StateVector& x = s.final_state;
   JsonObject state(2);
@@ -399,21 +329,83 @@ std::string summary_to_json(const RunSummary& s) {
   }
   j.integer("log_rows", s.log_rows)
       .str("log_path", s.log_path)
+      .str("metadata_path", s.metadata_path)
       .num("wall_clock_s", s.wall_clock_s)
       .num("real_time_factor", s.real_time_factor);
   return j.done() + "\n";
 }
 
+namespace {
+
+/// The sidecar of a run (log_metadata.hpp), everything but the columns.
+LogMetadata run_metadata(const Experiment& e, const VehicleModel& model,
+                         std::optional<std::string> model_hash) {
+  LogMetadata m;
+  m.dronetwin_version = std::string(version());
+  m.experiment = e.name;
+  m.experiment_path = e.source;
+  m.input_type = std::string(input_type_name(e.input));
+  m.model = model.name();
+  m.model_path = e.model_path;
+  m.model_hash = std::move(model_hash);
+  m.seed = e.seed;
+  m.dt_s = e.physics_dt_s;
+  m.integrator = e.integrator;
+  m.motor_dynamics = e.motor_dynamics;
+  m.log_every_n_steps = e.log.every_n_steps;
+  m.log_rate_hz = 1.0 / (e.physics_dt_s * static_cast<double>(e.log.every_n_steps));
+  if (const auto* in = std::get_if<ControllerLoopInput>(&e.input)) {
+    m.controller_path = in->controller_path;
+    m.control_rate_hz = in->control_rate_hz;
+  }
+  m.noise = e.noise.enabled;
+  m.disturbances = e.disturbances;
+  m.ground = e.ground.enabled;
+  m.wind_m_s = e.wind_m_s;
+  m.gravity_m_s2 = e.gravity_m_s2;
+  m.num_rotors = model.num_rotors();
+  return m;
+}
+
+/// The hash of the model file when `model` is what that file describes (compared through the
+/// full-precision YAML of both specs, which leaves out only the source path); empty when the
+/// model given in memory differs from the file or the file cannot be read or parsed.
+std::optional<std::string> hash_if_same_model(const std::string& path, const VehicleModel& model) {
+  try {
+    const std::string text = io_detail::read_text_file(path, "model file");
+    if (vehicle_spec_to_yaml(parse_vehicle_spec(text, path)) == vehicle_spec_to_yaml(model.spec()))
+      return content_hash(text);
+  } catch (const InvalidArgument&) {
+  }
+  return std::nullopt;
+}
+
+RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
+               const std::string& out_dir, std::optional<std::string> model_hash);
+
+}  // namespace
+
 RunSummary run_experiment(const Experiment& e, const std::string& out_dir) {
   validate(e);
-  return run_experiment(e, std::make_shared<const VehicleModel>(load_vehicle_model(e.model_path)),
-                        out_dir);
+  // Read once: the model flown is exactly the text hashed.
+  const std::string text = io_detail::read_text_file(e.model_path, "model file");
+  auto model =
+      std::make_shared<const VehicleModel>(VehicleModel(parse_vehicle_spec(text, e.model_path)));
+  return run(e, std::move(model), out_dir, content_hash(text));
 }
 
 RunSummary run_experiment(const Experiment& e, std::shared_ptr<const VehicleModel> model,
                           const std::string& out_dir) {
   require(model != nullptr, e.source, ": run_experiment: the model is null");
   validate(e);
+  std::optional<std::string> hash = hash_if_same_model(e.model_path, *model);
+  return run(e, std::move(model), out_dir, std::move(hash));
+}
+
+namespace {
+
+RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
+               const std::string& out_dir, std::optional<std::string> model_hash) {
   check_against_model(e, *model);
   const SimConfig config = e.sim_config();
 
@@ -438,6 +430,7 @@ RunSummary run_experiment(const Experiment& e, std::shared_ptr<const VehicleMode
           ec ? ec.message() : std::string("not a directory"), ")");
   const fs::path log_path = fs::path(out_dir) / "log.csv";
   const fs::path summary_path = fs::path(out_dir) / "summary.json";
+  const fs::path metadata_path = sidecar_path(log_path.string());
 
   RunSummary s;
   s.experiment_name = e.name;
@@ -452,11 +445,17 @@ RunSummary run_experiment(const Experiment& e, std::shared_ptr<const VehicleMode
   s.version = std::string(version());
   s.log_path = log_path.string();
   s.summary_path = summary_path.string();
+  s.metadata_path = metadata_path.string();
 
   const LogLayout layout{model->num_rotors(), e.log.measured, e.log.wrench_breakdown,
                          controller.has_value(),
                          controller ? controller->diagnostic_names() : std::vector<std::string>{}};
-  CsvLogWriter log(log_path.string(), log_column_names(layout));
+  LogMetadata metadata = run_metadata(e, *model, std::move(model_hash));
+  metadata.columns = log_columns(layout);
+  CsvLogWriter log(log_path.string(), metadata.column_names());
+  // Before the run: the sidecar depends on the settings only, and is there even if the process
+  // is stopped mid-run.
+  write_log_metadata(metadata, metadata_path.string());
   std::vector<double> row(log.num_columns());
 
   const auto observe = [&s](const Simulator& sm) {
@@ -535,8 +534,10 @@ RunSummary run_experiment(const Experiment& e, std::shared_ptr<const VehicleMode
   s.log_rows = static_cast<std::int64_t>(log.rows_written());
   s.wall_clock_s = wall_s;
   s.real_time_factor = wall_s > 0.0 ? s.duration_s / wall_s : 0.0;
-  write_text(summary_path, summary_to_json(s));
+  io_detail::write_text_file(summary_path, summary_to_json(s));
   return s;
 }
+
+}  // namespace
 
 }  // namespace dronetwin

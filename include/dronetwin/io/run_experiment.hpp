@@ -1,6 +1,8 @@
 #pragma once
 // Runs an Experiment end to end: loads its model, builds the Simulator, applies the input every
-// physics step, logs to `out_dir/log.csv` and writes `out_dir/summary.json`.
+// physics step, logs to `out_dir/log.csv` (with its sidecar `out_dir/log.json`, which holds the
+// column units and the run settings: io/log_metadata.hpp, docs/log-format.md) and writes
+// `out_dir/summary.json`.
 //
 //   Experiment e = load_experiment("config/experiments/hover_open_loop.yaml");
 //   RunSummary s = run_experiment(e, "out/hover");
@@ -116,16 +118,19 @@ struct RunSummary {
   std::string version;
   std::string log_path;
   std::string summary_path;
+  /// The log's JSON sidecar (io/log_metadata.hpp), next to log_path.
+  std::string metadata_path;
 
   bool ok() const { return status == StepStatus::kOk; }
 };
 
-/// Runs `experiment` (checks it against its model first) and writes out_dir/log.csv and
-/// out_dir/summary.json, creating out_dir if needed.
+/// Runs `experiment` (checks it against its model first) and writes out_dir/log.csv,
+/// out_dir/log.json and out_dir/summary.json, creating out_dir if needed.
 RunSummary run_experiment(const Experiment& experiment, const std::string& out_dir);
 
 /// Same with an already loaded model (sweeps over seeds or settings load it once);
-/// experiment.model_path is only reported.
+/// experiment.model_path is only reported. The sidecar's model_hash is that file's hash if the
+/// file describes the same model (same numbers and name), else null.
 RunSummary run_experiment(const Experiment& experiment, std::shared_ptr<const VehicleModel> model,
                           const std::string& out_dir);
 
