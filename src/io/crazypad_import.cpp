@@ -3,24 +3,50 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/io/csv_log.hpp"
+#include "dronetwin/io/log_metadata.hpp"
+#include "dronetwin/io/run_experiment.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "json_writer.hpp"
 
 namespace dronetwin {
 
 namespace {
 
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (const char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
+/// The columns of crazypad_import_columns() with unit, meaning and where each comes from.
+std::vector<LogColumn> crazypad_log_columns() {
+  std::vector<LogColumn> c = {{"t", "s", "timestamp_ms / 1000 - t0_boot_s (measured)"},
+                              {"x", "m", "stateEstimate.x, world frame (estimated)"},
+                              {"y", "m", "stateEstimate.y, world frame (estimated)"},
+                              {"z", "m", "stateEstimate.z, world frame, z up (estimated)"},
+                              {"vx", "m/s", "stateEstimate.vx, world frame (estimated)"},
+                              {"vy", "m/s", "stateEstimate.vy, world frame (estimated)"},
+                              {"vz", "m/s", "stateEstimate.vz, world frame (estimated)"}};
+  for (const char* q : {"qw", "qx", "qy", "qz"}) {
+    c.push_back({q, "1",
+                 std::string("attitude quaternion q_WB, ") + q[1] +
+                     " component, from stateEstimate.roll and .yaw (estimated) and a pitch "
+                     "derived as atan2(forward specific force, vertical specific force) while all "
+                     "PWM > 0 and the vertical specific force > g/2, else 0 (pitch is not logged; "
+                     "assumes thrust is the only non-gravity force)"});
   }
-  return out + "\"";
+  for (int i = 0; i < 4; ++i) {
+    c.push_back({"omega_" + std::to_string(i), "rad/s",
+                 "motor M" + std::to_string(i + 1) + " speed from pwm.m" + std::to_string(i + 1) +
+                     "_pwm and pm.vbatMV through the thrust-stand speed map (derived, not "
+                     "measured)"});
+  }
+  const char* axes[] = {"x", "y", "z"};
+  for (int k = 0; k < 3; ++k) {
+    c.push_back({std::string("acc_") + axes[k], "m/s^2",
+                 std::string("world-frame specific force dv/dt + g e3, ") + axes[k] +
+                     ": stateEstimate.a" + axes[k] + (k == 2 ? " + 1" : "") +
+                     ", times g (estimated; the source az excludes gravity)"});
+  }
+  return c;
 }
 
 }  // namespace
@@ -82,6 +108,12 @@ CrazyPadImport import_crazypad(const CrazyPadFlight& f, const SpeedMap& speed_ma
 void write_crazypad_import(const CrazyPadImport& imp, const std::string& stem,
                            const std::string& stand_source) {
   const std::filesystem::path csv = stem + ".csv", json = stem + ".json";
+  const std::vector<LogColumn> columns = crazypad_log_columns();
+  // The import's columns are crazypad_import_columns() unless a caller edited them.
+  std::vector<std::string> names;
+  for (const LogColumn& c : columns) names.push_back(c.name);
+  require(names == imp.columns, json.string(),
+          ": the import's columns are not crazypad_import_columns(); cannot describe them");
   if (csv.has_parent_path()) std::filesystem::create_directories(csv.parent_path());
   {
     CsvLogWriter log(csv.string(), imp.columns);
@@ -90,39 +122,29 @@ void write_crazypad_import(const CrazyPadImport& imp, const std::string& stem,
     }
     log.close();
   }
-  std::ofstream out(json);
-  require(static_cast<bool>(out), json.string(), ": cannot open for writing");
-  out.precision(17);
-  out << "{\n"
-      << "  \"format\": \"dronetwin log (docs: include/dronetwin/io/csv_log.hpp)\",\n"
-      << "  \"source\": " << json_string(imp.source) << ",\n"
-      << "  \"source_kind\": \"CrazyPAD Crazyflie 2.1 uSD log, decoded (.fixedFrequency.csv)\",\n"
-      << "  \"source_license\": \"MIT, Copyright (c) 2022 Kamil Masalimov, Tagir Muslimov; "
-         "cite Masalimov et al., Data 2024, 9, 79\",\n"
-      << "  \"t0_boot_s\": " << imp.t0_s << ",\n"
-      << "  \"rows\": " << imp.rows() << ",\n"
-      << "  \"gravity_m_s2\": " << imp.gravity_m_s2 << ",\n"
-      << "  \"speed_map\": {\"form\": \"omega = a * (pwm / 65535 * vbat) + b, 0 if pwm = 0\", "
-      << "\"a_rad_s_per_V\": " << imp.speed_map.a_rad_s_per_V
-      << ", \"b_rad_s\": " << imp.speed_map.b_rad_s << ", \"stand\": " << json_string(stand_source)
-      << "},\n"
-      << "  \"max_abs_reconstructed_pitch_rad\": " << imp.max_abs_pitch_rad << ",\n"
-      << "  \"columns\": {\n"
-      << "    \"t\": \"timestamp_ms / 1000 - t0_boot_s (measured)\",\n"
-      << "    \"x,y,z\": \"stateEstimate.x,y,z, m, world (estimated)\",\n"
-      << "    \"vx,vy,vz\": \"stateEstimate.vx,vy,vz, m/s, world (estimated)\",\n"
-      << "    \"qw,qx,qy,qz\": \"from stateEstimate.roll and .yaw (estimated) and a pitch derived "
-         "as atan2(forward specific force, vertical specific force) while all PWM > 0 and the "
-         "vertical specific force > g/2, else 0 (pitch is not logged; assumes thrust is the only "
-         "non-gravity force)\",\n"
-      << "    \"omega_0..omega_3\": \"motor M1..M4 speed, rad/s, from pwm.mN_pwm and pm.vbatMV "
-         "through the thrust-stand speed map (derived, not measured)\",\n"
-      << "    \"acc_x,acc_y,acc_z\": \"world-frame specific force dv/dt + g e3, m/s^2 = "
-         "stateEstimate.ax, ay, (az + 1) times g (estimated; the source az excludes gravity)\"\n"
-      << "  },\n"
-      << "  \"not_logged\": [\"wx\", \"wy\", \"wz\", \"pitch\", \"rotor speeds\"]\n"
-      << "}\n";
-  require(static_cast<bool>(out), json.string(), ": write failed");
+  io_detail::JsonObject speed_map(2);
+  speed_map.str("form", "omega = a * (pwm / 65535 * vbat) + b, 0 if pwm = 0")
+      .num("a_rad_s_per_V", imp.speed_map.a_rad_s_per_V)
+      .num("b_rad_s", imp.speed_map.b_rad_s)
+      .str("stand", stand_source);
+  io_detail::JsonObject j(0);
+  j.str("format", kImportedLogFormat)
+      .integer("format_version", kImportedLogFormatVersion)
+      .str("dronetwin_version", version())
+      .str("source", imp.source)
+      .str("source_kind", "CrazyPAD Crazyflie 2.1 uSD log, decoded (.fixedFrequency.csv)")
+      .str("source_license",
+           "MIT, Copyright (c) 2022 Kamil Masalimov, Tagir Muslimov; cite Masalimov et al., Data "
+           "2024, 9, 79")
+      .num("t0_boot_s", imp.t0_s)
+      .integer("rows", static_cast<long long>(imp.rows()))
+      .num("gravity_m_s2", imp.gravity_m_s2)
+      .raw("speed_map", speed_map.done())
+      .num("max_abs_reconstructed_pitch_rad", imp.max_abs_pitch_rad)
+      .integer("num_rotors", 4)
+      .raw("columns", io_detail::json_columns(columns))
+      .raw("not_logged", R"(["wx", "wy", "wz", "pitch", "rotor speeds"])");
+  io_detail::write_text_file(json, j.done() + "\n");
 }
 
 }  // namespace dronetwin

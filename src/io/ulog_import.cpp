@@ -4,11 +4,14 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
+#include <utility>
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/io/csv_log.hpp"
+#include "dronetwin/io/log_metadata.hpp"
+#include "dronetwin/io/run_experiment.hpp"
+#include "json_writer.hpp"
 
 namespace dronetwin {
 
@@ -26,6 +29,46 @@ double interpolate(const std::vector<double>& t, const std::vector<double>& v, d
   return v[i - 1] + s * (v[i] - v[i - 1]);
 }
 
+/// The columns of import_ulog() with unit, meaning and where each comes from.
+std::vector<LogColumn> ulog_log_columns(int num_rotors) {
+  std::vector<LogColumn> c = {
+      {"t", "s", "vehicle_attitude.timestamp - t0_boot_s (rows are attitude samples)"}};
+  const char* axes[] = {"x", "y", "z"};
+  for (const char* a : axes) {
+    c.push_back({a, "m",
+                 std::string("vehicle_local_position.") + a +
+                     " turned to z up, linearly interpolated (EKF estimate)"});
+  }
+  for (const char* a : axes) {
+    c.push_back({std::string("v") + a, "m/s",
+                 std::string("vehicle_local_position.v") + a +
+                     " turned to z up, linearly interpolated (EKF estimate)"});
+  }
+  for (const char* q : {"qw", "qx", "qy", "qz"}) {
+    c.push_back({q, "1",
+                 std::string("attitude quaternion q_WB, ") + q[1] +
+                     " component, from vehicle_attitude.q turned to z up (estimated)"});
+  }
+  const char* rates[] = {"rollspeed", "pitchspeed", "yawspeed"};
+  for (int k = 0; k < 3; ++k) {
+    c.push_back({std::string("w") + axes[k], "rad/s",
+                 std::string("body rate, body ") + axes[k] + " axis: vehicle_attitude." + rates[k] +
+                     " turned to z up, interpolated (estimated)"});
+  }
+  for (int i = 0; i < num_rotors; ++i) {
+    c.push_back({"omega_" + std::to_string(i), "rad/s",
+                 "esc_status.esc[" + std::to_string(i) +
+                     "].esc_rpm * 2 pi / 60, interpolated, ESC order (measured by the ESC)"});
+  }
+  for (const char* a : axes) {
+    c.push_back({std::string("acc_") + a, "m/s^2",
+                 std::string("world-frame specific force dv/dt + g e3 (g = 9.81), ") + a +
+                     ": vehicle_local_position.a" + a +
+                     " turned to z up, interpolated (EKF estimate)"});
+  }
+  return c;
+}
+
 }  // namespace
 
 ULogImport import_ulog(const ULog& log) {
@@ -40,9 +83,7 @@ ULogImport import_ulog(const ULog& log) {
             ", expected 1..8");
     imp.num_rotors = static_cast<int>(count);
   }
-  imp.columns = {"t", "x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "wx", "wy", "wz"};
-  for (int i = 0; i < imp.num_rotors; ++i) imp.columns.push_back("omega_" + std::to_string(i));
-  for (const char* c : {"acc_x", "acc_y", "acc_z"}) imp.columns.push_back(c);
+  for (LogColumn& c : ulog_log_columns(imp.num_rotors)) imp.columns.push_back(std::move(c.name));
 
   const auto& ta = att.column("timestamp");
   const auto& tp = pos.column("timestamp");
@@ -90,6 +131,11 @@ ULogImport import_ulog(const ULog& log) {
 
 void write_ulog_import(const ULogImport& imp, const std::string& stem) {
   const std::filesystem::path csv = stem + ".csv", json = stem + ".json";
+  const std::vector<LogColumn> columns = ulog_log_columns(imp.num_rotors);
+  std::vector<std::string> names;
+  for (const LogColumn& c : columns) names.push_back(c.name);
+  require(names == imp.columns, json.string(),
+          ": the import's columns are not those of import_ulog(); cannot describe them");
   if (csv.has_parent_path()) std::filesystem::create_directories(csv.parent_path());
   {
     CsvLogWriter out(csv.string(), imp.columns);
@@ -98,27 +144,20 @@ void write_ulog_import(const ULogImport& imp, const std::string& stem) {
     }
     out.close();
   }
-  std::ofstream out(json);
-  require(static_cast<bool>(out), json.string(), ": cannot open for writing");
-  out.precision(17);
-  out << "{\n  \"format\": \"dronetwin log (docs: include/dronetwin/io/csv_log.hpp)\",\n"
-      << "  \"source\": \"" << imp.source << "\",\n"
-      << "  \"source_kind\": \"PX4 ULog\",\n"
-      << "  \"t0_boot_s\": " << imp.t0_s << ",\n  \"rows\": " << imp.rows() << ",\n"
-      << "  \"num_rotors\": " << imp.num_rotors << ",\n"
-      << "  \"frames\": \"PX4 NED world / FRD body turned 180 deg about x: (x, y, z) -> "
-         "(x, -y, -z), q -> (qw, qx, -qy, -qz)\",\n"
-      << "  \"columns\": {\n"
-      << "    \"t\": \"vehicle_attitude.timestamp - t0_boot_s (rows are attitude samples)\",\n"
-      << "    \"x..vz\": \"vehicle_local_position x,y,z,vx,vy,vz, linearly interpolated "
-         "(EKF estimate)\",\n"
-      << "    \"qw..qz, wx..wz\": \"vehicle_attitude q and rollspeed/pitchspeed/yawspeed "
-         "(estimated)\",\n"
-      << "    \"omega_i\": \"esc_status esc[i].esc_rpm * 2 pi / 60, interpolated, ESC order "
-         "(measured by the ESC)\",\n"
-      << "    \"acc_x..acc_z\": \"specific force dv/dt + g e3 (g = 9.81) from "
-         "vehicle_local_position ax, ay, az, interpolated (EKF estimate)\"\n  }\n}\n";
-  require(static_cast<bool>(out), json.string(), ": write failed");
+  io_detail::JsonObject j(0);
+  j.str("format", kImportedLogFormat)
+      .integer("format_version", kImportedLogFormatVersion)
+      .str("dronetwin_version", version())
+      .str("source", imp.source)
+      .str("source_kind", "PX4 ULog")
+      .num("t0_boot_s", imp.t0_s)
+      .integer("rows", static_cast<long long>(imp.rows()))
+      .integer("num_rotors", imp.num_rotors)
+      .str("frames",
+           "PX4 NED world / FRD body turned 180 deg about x: (x, y, z) -> (x, -y, -z), q -> (qw, "
+           "qx, -qy, -qz)")
+      .raw("columns", io_detail::json_columns(columns));
+  io_detail::write_text_file(json, j.done() + "\n");
 }
 
 }  // namespace dronetwin
