@@ -24,27 +24,59 @@ import os as _os
 import numpy as _np
 
 from ._core import *  # noqa: F401,F403  (the bound classes and functions)
-from ._core import __version__, read_log_table  # noqa: F401
+from . import _core
+from ._core import __version__, read_log_table, sidecar_path  # noqa: F401
 
 STATE_COLUMNS = ("x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "wx", "wy", "wz")
 
 
-def read_log(path, as_frame=False):
+def _log_csv_path(path):
+    path = str(path)
+    return _os.path.join(path, "log.csv") if _os.path.isdir(path) else path
+
+
+def read_log(path, as_frame=False, metadata=False):
     """Reads a run log (``log.csv`` of ``dronetwin run`` / ``run_experiment``).
 
     Returns a dict {column name: float64 array} (``as_frame=False``) or a pandas DataFrame
     (``as_frame=True``; needs pandas). ``path`` may be the CSV or the run directory holding it.
+    With ``metadata=True`` returns ``(log, meta)``: ``meta`` is the LogMetadata of the log's
+    JSON sidecar (same stem, ``.json``: units, seed, dt_s, log rate, model hash, ...) or None when
+    there is none. Formats: docs/log-format.md.
     """
-    if _os.path.isdir(path):
-        path = _os.path.join(path, "log.csv")
-    columns, values = read_log_table(str(path))
+    path = _log_csv_path(path)
+    columns, values = read_log_table(path)
     if as_frame:
         try:
             import pandas as pd
         except ImportError as e:  # pragma: no cover - depends on the machine
             raise ImportError("read_log(as_frame=True) needs pandas (Debian: python3-pandas)") from e
-        return pd.DataFrame(values, columns=columns)
-    return {name: values[:, i] for i, name in enumerate(columns)}
+        log = pd.DataFrame(values, columns=columns)
+    else:
+        log = {name: values[:, i] for i, name in enumerate(columns)}
+    if not metadata:
+        return log
+    sidecar = sidecar_path(path)
+    if not _os.path.exists(sidecar):
+        return log, None
+    meta = _core.read_log_metadata(sidecar)
+    if meta.column_names() != list(columns):
+        raise ValueError(f"{sidecar}: columns: do not match the header of {path}")
+    return log, meta
+
+
+def read_log_metadata(path):
+    """The LogMetadata of a run log's JSON sidecar (``log.json``; docs/log-format.md).
+
+    ``path`` may be the sidecar itself, the log's CSV (its sidecar has the same stem) or the run
+    directory. ValueError naming the file and field for a malformed sidecar.
+    """
+    path = str(path)
+    if _os.path.isdir(path):
+        path = _os.path.join(path, "log.json")
+    elif not path.endswith(".json"):
+        path = sidecar_path(path)
+    return _core.read_log_metadata(path)
 
 
 def yaw_from_quaternions(q):

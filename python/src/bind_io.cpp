@@ -1,10 +1,11 @@
 // Bindings of the io layer: experiment files and the runner (the same code as `dronetwin run`),
-// controller files, and run logs read into numpy arrays.
+// controller files, and run logs read into numpy arrays with their JSON sidecar (LogMetadata).
 
 #include "bindings.hpp"
 #include "dronetwin/io/controller_config.hpp"
 #include "dronetwin/io/csv_log.hpp"
 #include "dronetwin/io/experiment.hpp"
+#include "dronetwin/io/log_metadata.hpp"
 #include "dronetwin/io/run_experiment.hpp"
 
 namespace dronetwin::python {
@@ -131,6 +132,8 @@ void bind_io(py::module_& m) {
       .def_readonly("real_time_factor", &RunSummary::real_time_factor)
       .def_readonly("log_path", &RunSummary::log_path)
       .def_readonly("summary_path", &RunSummary::summary_path)
+      .def_readonly("metadata_path", &RunSummary::metadata_path,
+                    "The log's JSON sidecar (log.json: units and run settings).")
       .def("to_json", &summary_to_json, "The text of summary.json.")
       .def("__repr__", [](const RunSummary& s) {
         return "RunSummary('" + s.experiment_name + "', status=" + std::string(status_name(s.status)) +
@@ -162,6 +165,82 @@ void bind_io(py::module_& m) {
       py::arg("path"),
       "Reads a run log (CSV) into (column names, 2-D float64 array). ValueError naming the file,\n"
       "line and column for a malformed file. Prefer dronetwin.read_log (dict or DataFrame).");
+  py::class_<LogColumn>(m, "LogColumn", "One column of a log: name, unit and a one-line meaning.")
+      .def_readonly("name", &LogColumn::name)
+      .def_readonly("unit", &LogColumn::unit,
+                    "'s', 'm', 'm/s', '1' (dimensionless), 'rad', 'rad/s', 'N', 'N m', 'bool', ...")
+      .def_readonly("meaning", &LogColumn::meaning)
+      .def("__repr__", [](const LogColumn& c) {
+        return "LogColumn('" + c.name + "', unit='" + c.unit + "')";
+      });
+
+  py::class_<LogMetadata>(
+      m, "LogMetadata",
+      "A run log's JSON sidecar (log.json, docs/log-format.md): how the log was made and what\n"
+      "every column holds.\n\n"
+      "    meta = dronetwin.read_log_metadata('out/hover')      # run dir, log.csv or log.json\n"
+      "    meta.dt_s, meta.log_rate_hz, meta.seed, meta.column('vz').unit\n"
+      "    meta.model_hash == dronetwin.file_hash(meta.model_path)")
+      .def_readonly("source", &LogMetadata::source, "The sidecar file it was read from.")
+      .def_readonly("format", &LogMetadata::format)
+      .def_readonly("format_version", &LogMetadata::format_version)
+      .def_readonly("dronetwin_version", &LogMetadata::dronetwin_version)
+      .def_readonly("experiment", &LogMetadata::experiment)
+      .def_readonly("experiment_path", &LogMetadata::experiment_path)
+      .def_readonly("input_type", &LogMetadata::input_type)
+      .def_readonly("model", &LogMetadata::model)
+      .def_readonly("model_path", &LogMetadata::model_path)
+      .def_readonly("model_hash", &LogMetadata::model_hash,
+                    "'fnv1a64:<16 hex digits>' of the model file, or None when the run flew a\n"
+                    "model given in memory that differs from that file.")
+      .def_readonly("seed", &LogMetadata::seed)
+      .def_readonly("dt_s", &LogMetadata::dt_s, "Physics step, s.")
+      .def_readonly("integrator", &LogMetadata::integrator)
+      .def_readonly("motor_dynamics", &LogMetadata::motor_dynamics)
+      .def_readonly("log_every_n_steps", &LogMetadata::log_every_n_steps)
+      .def_readonly("log_rate_hz", &LogMetadata::log_rate_hz, "1 / (log_every_n_steps dt_s).")
+      .def_readonly("controller_path", &LogMetadata::controller_path, "None in open loop.")
+      .def_readonly("control_rate_hz", &LogMetadata::control_rate_hz, "None in open loop.")
+      .def_readonly("noise", &LogMetadata::noise)
+      .def_readonly("disturbances", &LogMetadata::disturbances)
+      .def_readonly("ground", &LogMetadata::ground)
+      .def_property_readonly("wind_m_s", [](const LogMetadata& d) { return Vec3(d.wind_m_s); })
+      .def_property_readonly("gravity_m_s2",
+                             [](const LogMetadata& d) { return Vec3(d.gravity_m_s2); })
+      .def_readonly("num_rotors", &LogMetadata::num_rotors)
+      .def_readonly("columns", &LogMetadata::columns, "The CSV's columns in order (LogColumn).")
+      .def("column", &LogMetadata::column, py::arg("name"),
+           "The LogColumn called `name`; ValueError naming the sidecar otherwise.")
+      .def("column_names", &LogMetadata::column_names, "The column names in CSV order.")
+      .def(
+          "units",
+          [](const LogMetadata& d) {
+            py::dict units;
+            for (const LogColumn& c : d.columns) units[py::str(c.name)] = c.unit;
+            return units;
+          },
+          "{column name: unit} for every column.")
+      .def("to_json", &log_metadata_to_json, "The sidecar's JSON text (as run_experiment writes it).")
+      .def("__repr__", [](const LogMetadata& d) {
+        return "LogMetadata('" + d.experiment + "', model='" + d.model + "', seed=" +
+               std::to_string(d.seed) + ", " + std::to_string(d.columns.size()) + " columns)";
+      });
+
+  m.def("read_log_metadata", &read_log_metadata, py::arg("json_path"),
+        "Reads a run log's JSON sidecar (log.json) into a LogMetadata; ValueError naming the file\n"
+        "and field for a malformed one. dronetwin.read_log_metadata also takes the run directory\n"
+        "or the CSV.");
+  m.def("parse_log_metadata", &parse_log_metadata, py::arg("json_text"),
+        py::arg("source_name") = "<string>", "A LogMetadata from sidecar JSON text.");
+  m.def("sidecar_path", &sidecar_path, py::arg("csv_path"),
+        "The sidecar of a log: the same stem with '.json' ('out/log.csv' -> 'out/log.json').");
+  m.def("file_hash", &file_hash, py::arg("path"),
+        "'fnv1a64:<16 hex digits>': 64-bit FNV-1a of a file's bytes, as in a sidecar's\n"
+        "model_hash (check a log against a model file). ValueError if it cannot be read.");
+  m.def(
+      "fnv1a64", [](const py::bytes& data) { return fnv1a64(std::string_view(data)); },
+      py::arg("data"), "64-bit FNV-1a of a bytes object, as an int.");
+
   m.def("log_column_names",
         [](int num_rotors, bool measured, bool wrench_breakdown, bool controller) {
           return log_column_names(LogLayout{num_rotors, measured, wrench_breakdown, controller});
