@@ -1,12 +1,15 @@
 // `dronetwin fit` (fit_command.hpp).
 #include "fit_command.hpp"
 
+#include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <sstream>
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/identification/fit.hpp"
 #include "dronetwin/io/csv_log.hpp"
+#include "dronetwin/io/log_metadata.hpp"
 #include "dronetwin/io/model_loader.hpp"
 
 namespace dronetwin::cli {
@@ -55,7 +58,8 @@ void register_fit_command(CLI::App& app, FitCommand& c) {
   c.cmd->add_option("--window", c.window_s, "Output-error window length, s (default 0.05)");
   c.cmd->add_option("--max-windows", c.max_windows, "At most this many output-error windows (200)");
   c.cmd->add_option("--disturbances", c.disturbances,
-                    "Terms the flight was flown with: all (default), none, or a list");
+                    "Terms the flight was flown with: all, none, or a list (default: what the "
+                    "log's log.json says, else all)");
   c.cmd->add_option("--min-height", c.min_height_m,
                     "Leave out rows below this height, m (take-off and landing in logs without "
                     "in_contact)");
@@ -74,12 +78,32 @@ int run_fit_command(const FitCommand& c) {
   o.holdout_fraction = c.holdout;
   o.window_s = c.window_s;
   o.max_windows = c.max_windows;
-  o.switches = parse_switches(c.disturbances);
+  const std::string sidecar = sidecar_path(c.log);
+  std::string settings_from = "defaults (all terms, no wind)";
+  const auto is_run_log = [](const std::string& path) {  // importers write their own format
+    std::ifstream in(path);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str().find(std::string(kRunLogFormat)) != std::string::npos;
+  };
+  if (std::filesystem::exists(sidecar) && is_run_log(sidecar)) {
+    const LogMetadata meta = read_log_metadata(sidecar);
+    require(meta.num_rotors == model.num_rotors(), sidecar, ": the log has ", meta.num_rotors,
+            " rotors, the model ", c.model, " has ", model.num_rotors());
+    o.switches = meta.disturbances;
+    o.environment.wind_W_m_s = meta.wind_m_s;
+    o.environment.gravity_W_m_s2 = meta.gravity_m_s2;
+    settings_from = sidecar;
+  }
+  if (!c.disturbances.empty()) {
+    o.switches = parse_switches(c.disturbances);
+    settings_from = "--disturbances " + c.disturbances;
+  }
   o.min_height_m = c.min_height_m;
   const FlightData data = flight_data_from_log(read_csv_log(c.log), model.num_rotors(), !c.true_state);
   const FitResult r = fit_model(model, data, o);
   std::cout << "fit " << c.log << " (" << (data.used_measured ? "measured" : "true") << " state) to "
-            << c.model << "\n"
+            << c.model << "; flight settings from " << settings_from << "\n"
             << format_fit_report(r);
   if (!c.report.empty()) {
     std::ofstream out(c.report);

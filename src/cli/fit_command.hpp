@@ -6,6 +6,8 @@
 //                 [--holdout 0.2] [--true-state] [--window 0.05] [--max-windows 200]
 //                 [--disturbances all|none|rotor_drag,body_drag,...] [--min-height M]
 //
+// The disturbance switches, wind and gravity the flight was flown with come from the log's
+// sidecar (log.json, docs/log-format.md) when it has one; --disturbances overrides them.
 // Prints the estimates with standard errors, the residuals before/after on the fitted and the
 // held-out part, and the warnings; writes the fitted model file (and the report as JSON). A fit
 // whose estimates do not make a valid model (negative drag, say) writes the report but not the
@@ -17,7 +19,8 @@ namespace dronetwin::cli {
 
 struct FitCommand {
   CLI::App* cmd = nullptr;
-  std::string model, log, params, out, report, method = "both", disturbances = "all";
+  /// Empty disturbances: the log's sidecar (log.json) says which terms were on, else all.
+  std::string model, log, params, out, report, method = "both", disturbances;
   double holdout = 0.2, window_s = 0.05, min_height_m = -1e300;
   int max_windows = 200;
   bool true_state = false;

@@ -100,6 +100,8 @@ TEST_F(FitCli, RecoversAChangedVehicleFromItsLogAndWritesTheFittedModel) {
       << out << err;
   EXPECT_NE(out.find("thrust_k1"), std::string::npos) << out;
   EXPECT_NE(out.find("holdout"), std::string::npos) << out;
+  // The flight's switches, wind and gravity come from the run's sidecar.
+  EXPECT_NE(out.find("flight settings from " + (dir_ / "run" / "log.json").string()), std::string::npos) << out;
   const VehicleSpec f = load_vehicle_spec(fitted.string());
   for (const ModelParameter p : {ModelParameter::kThrustK1, ModelParameter::kInertiaZZ, ModelParameter::kTauRise}) {
     EXPECT_NEAR(parameter_value(f, p) / parameter_value(truth, p), 1.0, 0.01) << parameter_name(p);
