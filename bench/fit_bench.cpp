@@ -31,7 +31,8 @@ const Data& data() {
   static const Data d = [] {
     const std::string root = DRONETWIN_SOURCE_DIR;
     Data out;
-    out.nominal = std::make_shared<const VehicleModel>(load_vehicle_model(root + "/models/qdrone2.yaml"));
+    out.nominal =
+        std::make_shared<const VehicleModel>(load_vehicle_model(root + "/models/qdrone2.yaml"));
     VehicleSpec truth = out.nominal->spec();
     const std::pair<ModelParameter, double> changes[] = {
         {ModelParameter::kInertiaXX, 1.2}, {ModelParameter::kInertiaYY, 1.2},
@@ -71,7 +72,9 @@ const char* kThirteen = "thrust,inertia,rotor_drag,yaw_moment_per_thrust,body_dr
 
 void BM_Fit60sEquationError13(benchmark::State& s) { fit(s, kThirteen, FitMethod::kEquationError); }
 void BM_Fit60sBoth13(benchmark::State& s) { fit(s, kThirteen, FitMethod::kBoth); }
-void BM_Fit60sEquationError3(benchmark::State& s) { fit(s, "thrust_k1,inertia_zz,body_drag_z", FitMethod::kEquationError); }
+void BM_Fit60sEquationError3(benchmark::State& s) {
+  fit(s, "thrust_k1,inertia_zz,body_drag_z", FitMethod::kEquationError);
+}
 
 BENCHMARK(BM_Fit60sEquationError13)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_Fit60sBoth13)->Unit(benchmark::kSecond)->Iterations(1);

@@ -37,8 +37,8 @@ std::vector<ModelParameter> parameters_from(py::handle obj) {
   std::string list;
   for (py::handle item : obj) {
     if (!py::isinstance<py::str>(item)) {
-      throw py::type_error(detail::concat("params: expected a str or a list of str, got an item that is ",
-                                          describe_object(item)));
+      throw py::type_error(detail::concat(
+          "params: expected a str or a list of str, got an item that is ", describe_object(item)));
     }
     if (!list.empty()) list += ',';
     list += item.cast<std::string>();
@@ -59,14 +59,22 @@ void bind_fit(py::module_& m) {
                     "True when the state came from the meas_* columns.")
       .def_readonly("has_body_rates", &FlightData::has_body_rates,
                     "False when the log had no wx, wy, wz (then derived from the attitudes).")
-      .def_property_readonly("t_s", [](const FlightData& d) { return copy_of(Eigen::Map<const Eigen::VectorXd>(d.t_s.data(), static_cast<Eigen::Index>(d.t_s.size()))); },
-                             "Row times, s (a copy).")
-      .def_property_readonly("state", [](const FlightData& d) { return rows_of(d.state, kStateSize); },
-                             "(rows, 13) state, a copy.")
-      .def_property_readonly("rotor_speed_rad_s",
-                             [](const FlightData& d) { return rows_of(d.rotor_speed_rad_s, d.num_rotors); },
-                             "(rows, num_rotors) rotor speeds, a copy.")
-      .def("__len__", [](const FlightData& d) { return d.t_s.size(); }, "Number of rows.");
+      .def_property_readonly(
+          "t_s",
+          [](const FlightData& d) {
+            return copy_of(Eigen::Map<const Eigen::VectorXd>(
+                d.t_s.data(), static_cast<Eigen::Index>(d.t_s.size())));
+          },
+          "Row times, s (a copy).")
+      .def_property_readonly(
+          "state", [](const FlightData& d) { return rows_of(d.state, kStateSize); },
+          "(rows, 13) state, a copy.")
+      .def_property_readonly(
+          "rotor_speed_rad_s",
+          [](const FlightData& d) { return rows_of(d.rotor_speed_rad_s, d.num_rotors); },
+          "(rows, num_rotors) rotor speeds, a copy.")
+      .def(
+          "__len__", [](const FlightData& d) { return d.t_s.size(); }, "Number of rows.");
 
   m.def(
       "read_flight",
@@ -87,26 +95,33 @@ void bind_fit(py::module_& m) {
       .def_readonly("std_error", &FittedParameter::std_error,
                     "Standard error from Ceres' covariance (NaN when it could not be computed).")
       .def("__repr__", [](const FittedParameter& p) {
-        return detail::concat("FittedParameter(", p.name, " = ", p.estimate, " +- ", p.std_error, " ", p.unit, ")");
+        return detail::concat("FittedParameter(", p.name, " = ", p.estimate, " +- ", p.std_error,
+                              " ", p.unit, ")");
       });
 
-  py::class_<FitResult>(m, "FitResult",
-                        "The result of fit_model: estimates with standard errors, correlations, "
-                        "residuals before/after on the fitted and held-out parts, warnings, and the "
-                        "fitted model spec.")
+  py::class_<FitResult>(
+      m, "FitResult",
+      "The result of fit_model: estimates with standard errors, correlations, "
+      "residuals before/after on the fitted and held-out parts, warnings, and the "
+      "fitted model spec.")
       .def_readonly("parameters", &FitResult::parameters)
-      .def_property_readonly("correlation", [](const FitResult& r) { return Eigen::MatrixXd(r.correlation); },
-                             "Correlation matrix of the estimates (parameters order); empty if the "
-                             "covariance failed.")
+      .def_property_readonly(
+          "correlation", [](const FitResult& r) { return Eigen::MatrixXd(r.correlation); },
+          "Correlation matrix of the estimates (parameters order); empty if the "
+          "covariance failed.")
       .def_readonly("warnings", &FitResult::warnings)
-      .def_property_readonly("fit_before", [](const FitResult& r) { return stats_dict(r.fit_before); },
-                             "Residual RMS on the fitted intervals with the starting model.")
-      .def_property_readonly("fit_after", [](const FitResult& r) { return stats_dict(r.fit_after); },
-                             "Residual RMS on the fitted intervals with the estimates.")
-      .def_property_readonly("holdout_before", [](const FitResult& r) { return stats_dict(r.holdout_before); },
-                             "Residual RMS on the held-out intervals with the starting model.")
-      .def_property_readonly("holdout_after", [](const FitResult& r) { return stats_dict(r.holdout_after); },
-                             "Residual RMS on the held-out intervals with the estimates.")
+      .def_property_readonly(
+          "fit_before", [](const FitResult& r) { return stats_dict(r.fit_before); },
+          "Residual RMS on the fitted intervals with the starting model.")
+      .def_property_readonly(
+          "fit_after", [](const FitResult& r) { return stats_dict(r.fit_after); },
+          "Residual RMS on the fitted intervals with the estimates.")
+      .def_property_readonly(
+          "holdout_before", [](const FitResult& r) { return stats_dict(r.holdout_before); },
+          "Residual RMS on the held-out intervals with the starting model.")
+      .def_property_readonly(
+          "holdout_after", [](const FitResult& r) { return stats_dict(r.holdout_after); },
+          "Residual RMS on the held-out intervals with the estimates.")
       .def_readonly("rows", &FitResult::rows)
       .def_readonly("intervals_used", &FitResult::intervals_used)
       .def_readonly("intervals_holdout", &FitResult::intervals_holdout)
@@ -117,14 +132,18 @@ void bind_fit(py::module_& m) {
       .def_readonly("fitted_spec", &FitResult::fitted_spec,
                     "The starting model's spec with the estimates written in (VehicleModel(spec) "
                     "validates it).")
-      .def("estimates", [](const FitResult& r) {
-             py::dict d;
-             for (const FittedParameter& p : r.parameters) d[py::str(p.name)] = py::make_tuple(p.estimate, p.std_error);
-             return d;
-           },
-           "{name: (estimate, std_error)}.")
+      .def(
+          "estimates",
+          [](const FitResult& r) {
+            py::dict d;
+            for (const FittedParameter& p : r.parameters)
+              d[py::str(p.name)] = py::make_tuple(p.estimate, p.std_error);
+            return d;
+          },
+          "{name: (estimate, std_error)}.")
       .def("report", &format_fit_report, "The report `dronetwin fit` prints.")
-      .def("to_json", &fit_result_to_json, "The report as JSON text (what `dronetwin fit --report` writes).");
+      .def("to_json", &fit_result_to_json,
+           "The report as JSON text (what `dronetwin fit --report` writes).");
 
   m.def(
       "fit_model",
@@ -133,10 +152,15 @@ void bind_fit(py::module_& m) {
          double window_s, int max_windows, int max_iterations) {
         FitOptions o;
         o.parameters = parameters_from(params);
-        if (method == "equation") o.method = FitMethod::kEquationError;
-        else if (method == "output") o.method = FitMethod::kOutputError;
-        else if (method == "both") o.method = FitMethod::kBoth;
-        else throw InvalidArgument(detail::concat("fit_model: method must be 'equation', 'output' or 'both', got '", method, "'"));
+        if (method == "equation")
+          o.method = FitMethod::kEquationError;
+        else if (method == "output")
+          o.method = FitMethod::kOutputError;
+        else if (method == "both")
+          o.method = FitMethod::kBoth;
+        else
+          throw InvalidArgument(detail::concat(
+              "fit_model: method must be 'equation', 'output' or 'both', got '", method, "'"));
         o.holdout_fraction = holdout;
         if (!switches.is_none()) o.switches = switches.cast<DisturbanceSwitches>();
         o.min_height_m = min_height_m;
@@ -146,10 +170,10 @@ void bind_fit(py::module_& m) {
         py::gil_scoped_release release;
         return fit_model(*model, flight, o);
       },
-      py::arg("model"), py::arg("flight"), py::arg("params"), py::kw_only(), py::arg("method") = "both",
-      py::arg("holdout") = 0.2, py::arg("switches") = py::none(),
-      py::arg("min_height_m") = -std::numeric_limits<double>::infinity(), py::arg("window_s") = 0.05,
-      py::arg("max_windows") = 200, py::arg("max_iterations") = 50,
+      py::arg("model"), py::arg("flight"), py::arg("params"), py::kw_only(),
+      py::arg("method") = "both", py::arg("holdout") = 0.2, py::arg("switches") = py::none(),
+      py::arg("min_height_m") = -std::numeric_limits<double>::infinity(),
+      py::arg("window_s") = 0.05, py::arg("max_windows") = 200, py::arg("max_iterations") = 50,
       "Identifies `params` (names or groups, as a list or a comma-separated str: mass, inertia, "
       "thrust, yaw_moment_per_thrust, drag_moment, rotor_drag, rolling_moment, body_drag, "
       "ground_effect, motor, ...) of `model` from `flight` with Ceres; the same fit as "
@@ -159,25 +183,34 @@ void bind_fit(py::module_& m) {
       "    print(r.report()); fitted = dronetwin.VehicleModel(r.fitted_spec)");
   const auto single = [](const std::string& name) {
     const std::vector<ModelParameter> p = parse_parameter_list(name);
-    require(p.size() == 1, "'", name, "' names a group of ", p.size(), " parameters; give one parameter");
+    require(p.size() == 1, "'", name, "' names a group of ", p.size(),
+            " parameters; give one parameter");
     return p[0];
   };
-  m.def("parameter_value", [single](const VehicleSpec& spec, const std::string& name) {
-          return parameter_value(spec, single(name));
-        },
-        py::arg("spec"), py::arg("name"),
-        "Value of one identifiable parameter in a spec (the mean over rotors for per-rotor ones).");
-  m.def("set_parameter_value", [single](VehicleSpec& spec, const std::string& name, double value) {
-          set_parameter_value(spec, single(name), value);
-        },
-        py::arg("spec"), py::arg("name"), py::arg("value"),
-        "Writes one identifiable parameter into a spec (per-rotor coefficients are scaled together).");
-  m.def("parameter_names", [] {
-          std::vector<std::string> names;
-          for (int j = 0; j < kNumModelParameters; ++j) names.emplace_back(parameter_name(static_cast<ModelParameter>(j)));
-          return names;
-        },
-        "Names of every parameter fit_model can identify.");
+  m.def(
+      "parameter_value",
+      [single](const VehicleSpec& spec, const std::string& name) {
+        return parameter_value(spec, single(name));
+      },
+      py::arg("spec"), py::arg("name"),
+      "Value of one identifiable parameter in a spec (the mean over rotors for per-rotor ones).");
+  m.def(
+      "set_parameter_value",
+      [single](VehicleSpec& spec, const std::string& name, double value) {
+        set_parameter_value(spec, single(name), value);
+      },
+      py::arg("spec"), py::arg("name"), py::arg("value"),
+      "Writes one identifiable parameter into a spec (per-rotor coefficients are scaled "
+      "together).");
+  m.def(
+      "parameter_names",
+      [] {
+        std::vector<std::string> names;
+        for (int j = 0; j < kNumModelParameters; ++j)
+          names.emplace_back(parameter_name(static_cast<ModelParameter>(j)));
+        return names;
+      },
+      "Names of every parameter fit_model can identify.");
 }
 
 }  // namespace dronetwin::python

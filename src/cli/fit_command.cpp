@@ -24,12 +24,18 @@ DisturbanceSwitches parse_switches(const std::string& text) {
     std::size_t end = text.find(',', start);
     if (end == std::string::npos) end = text.size();
     const std::string item = text.substr(start, end - start);
-    if (item == "rotor_drag") s.rotor_drag = true;
-    else if (item == "rolling_moment") s.rolling_moment = true;
-    else if (item == "drag_moment") s.drag_moment = true;
-    else if (item == "ground_effect") s.ground_effect = true;
-    else if (item == "gyroscopic") s.gyroscopic = true;
-    else if (item == "body_drag") s.body_drag = true;
+    if (item == "rotor_drag")
+      s.rotor_drag = true;
+    else if (item == "rolling_moment")
+      s.rolling_moment = true;
+    else if (item == "drag_moment")
+      s.drag_moment = true;
+    else if (item == "ground_effect")
+      s.ground_effect = true;
+    else if (item == "gyroscopic")
+      s.gyroscopic = true;
+    else if (item == "body_drag")
+      s.body_drag = true;
     else
       throw InvalidArgument("--disturbances: unknown term '" + item +
                             "' (valid: all, none, or a list of rotor_drag, rolling_moment, "
@@ -45,16 +51,18 @@ void register_fit_command(CLI::App& app, FitCommand& c) {
   c.cmd = app.add_subcommand("fit", "Identify model parameters from a logged flight (Ceres)");
   c.cmd->add_option("--model,-m", c.model, "Vehicle model file to start from (YAML)")->required();
   c.cmd->add_option("--log,-l", c.log, "Flight log (CSV, dronetwin log format)")->required();
-  c.cmd->add_option("--params,-p", c.params,
-                    "Comma-separated parameters or groups: mass, inertia_xx/yy/zz, thrust_k1/k2/k3, "
-                    "yaw_moment_per_thrust, drag_moment, rotor_drag, rolling_moment, "
-                    "body_drag_x/y/z, ground_effect, tau_rise, tau_fall; groups thrust, inertia, "
-                    "body_drag, motor")
+  c.cmd
+      ->add_option("--params,-p", c.params,
+                   "Comma-separated parameters or groups: mass, inertia_xx/yy/zz, thrust_k1/k2/k3, "
+                   "yaw_moment_per_thrust, drag_moment, rotor_drag, rolling_moment, "
+                   "body_drag_x/y/z, ground_effect, tau_rise, tau_fall; groups thrust, inertia, "
+                   "body_drag, motor")
       ->required();
   c.cmd->add_option("--out,-o", c.out, "Where to write the fitted model file (YAML)")->required();
   c.cmd->add_option("--report", c.report, "Also write the fit report as JSON here");
   c.cmd->add_option("--method", c.method, "equation, output or both (default both)");
-  c.cmd->add_option("--holdout", c.holdout, "Share of the flight (at its end) held out (default 0.2)");
+  c.cmd->add_option("--holdout", c.holdout,
+                    "Share of the flight (at its end) held out (default 0.2)");
   c.cmd->add_option("--window", c.window_s, "Output-error window length, s (default 0.05)");
   c.cmd->add_option("--max-windows", c.max_windows, "At most this many output-error windows (200)");
   c.cmd->add_option("--disturbances", c.disturbances,
@@ -71,10 +79,14 @@ int run_fit_command(const FitCommand& c) {
   const VehicleModel model = load_vehicle_model(c.model);
   FitOptions o;
   o.parameters = parse_parameter_list(c.params);
-  if (c.method == "equation") o.method = FitMethod::kEquationError;
-  else if (c.method == "output") o.method = FitMethod::kOutputError;
-  else if (c.method == "both") o.method = FitMethod::kBoth;
-  else throw InvalidArgument("--method: expected equation, output or both, got '" + c.method + "'");
+  if (c.method == "equation")
+    o.method = FitMethod::kEquationError;
+  else if (c.method == "output")
+    o.method = FitMethod::kOutputError;
+  else if (c.method == "both")
+    o.method = FitMethod::kBoth;
+  else
+    throw InvalidArgument("--method: expected equation, output or both, got '" + c.method + "'");
   o.holdout_fraction = c.holdout;
   o.window_s = c.window_s;
   o.max_windows = c.max_windows;
@@ -100,10 +112,11 @@ int run_fit_command(const FitCommand& c) {
     settings_from = "--disturbances " + c.disturbances;
   }
   o.min_height_m = c.min_height_m;
-  const FlightData data = flight_data_from_log(read_csv_log(c.log), model.num_rotors(), !c.true_state);
+  const FlightData data =
+      flight_data_from_log(read_csv_log(c.log), model.num_rotors(), !c.true_state);
   const FitResult r = fit_model(model, data, o);
-  std::cout << "fit " << c.log << " (" << (data.used_measured ? "measured" : "true") << " state) to "
-            << c.model << "; flight settings from " << settings_from << "\n"
+  std::cout << "fit " << c.log << " (" << (data.used_measured ? "measured" : "true")
+            << " state) to " << c.model << "; flight settings from " << settings_from << "\n"
             << format_fit_report(r);
   if (!c.report.empty()) {
     std::ofstream out(c.report);

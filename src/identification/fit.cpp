@@ -39,7 +39,8 @@ Split split_intervals(const FlightData& d, const FitOptions& o) {
   for (std::size_t k = 0; k + 1 < n; ++k) dts.push_back(d.t_s[k + 1] - d.t_s[k]);
   require(!dts.empty(), d.source, ": a fit needs at least two rows, the log has ", n);
   std::vector<double> sorted = dts;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
+                   sorted.end());
   s.median_dt_s = sorted[sorted.size() / 2];
   for (char c : d.in_contact) s.contact_rows += c ? 1 : 0;
   std::vector<char> excluded(n, 0);
@@ -48,7 +49,8 @@ Split split_intervals(const FlightData& d, const FitOptions& o) {
                   d.rotor_speed_rad_s[k].minCoeff() < o.min_rotor_speed_rad_s;
     s.excluded_rows += excluded[k] ? 1 : 0;
   }
-  const double t_split = d.t_s.front() + (1.0 - o.holdout_fraction) * (d.t_s.back() - d.t_s.front());
+  const double t_split =
+      d.t_s.front() + (1.0 - o.holdout_fraction) * (d.t_s.back() - d.t_s.front());
   for (std::size_t k = 0; k + 1 < n; ++k) {
     if (dts[k] > o.max_gap_factor * s.median_dt_s) {
       ++s.gaps;
@@ -92,7 +94,8 @@ struct ThetaMap {
   template <class T>
   std::array<T, kNumModelParameters> full(const T* block) const {
     std::array<T, kNumModelParameters> th;
-    for (int j = 0; j < kNumModelParameters; ++j) th[static_cast<std::size_t>(j)] = T(fixed[static_cast<std::size_t>(j)]);
+    for (int j = 0; j < kNumModelParameters; ++j)
+      th[static_cast<std::size_t>(j)] = T(fixed[static_cast<std::size_t>(j)]);
     for (std::size_t i = 0; i < free.size(); ++i) th[static_cast<std::size_t>(free[i])] = block[i];
     return th;
   }
@@ -127,13 +130,16 @@ struct EquationError {
       const bool accelerometer = !d->specific_force_W_m_s2.empty();
       for (int a = 0; a < 3; ++a) {
         const double dv =
-            accelerometer ? 0.5 * (d->specific_force_W_m_s2[k][a] + d->specific_force_W_m_s2[k + 1][a]) +
-                                pm->environment().gravity_W_m_s2[a]
-                          : (d->state[k + 1][3 + a] - d->state[k][3 + a]) / dt;
-        res[6 * i + static_cast<std::size_t>(a)] = w.linear * (dv - T(0.5) * (f0[3 + a] + f1[3 + a]));
+            accelerometer
+                ? 0.5 * (d->specific_force_W_m_s2[k][a] + d->specific_force_W_m_s2[k + 1][a]) +
+                      pm->environment().gravity_W_m_s2[a]
+                : (d->state[k + 1][3 + a] - d->state[k][3 + a]) / dt;
+        res[6 * i + static_cast<std::size_t>(a)] =
+            w.linear * (dv - T(0.5) * (f0[3 + a] + f1[3 + a]));
         if (d->has_body_rates) {
           const double dw = (d->state[k + 1][10 + a] - d->state[k][10 + a]) / dt;
-          res[6 * i + 3 + static_cast<std::size_t>(a)] = w.angular * (dw - T(0.5) * (f0[10 + a] + f1[10 + a]));
+          res[6 * i + 3 + static_cast<std::size_t>(a)] =
+              w.angular * (dw - T(0.5) * (f0[10 + a] + f1[10 + a]));
         } else {
           res[6 * i + 3 + static_cast<std::size_t>(a)] = T(0.0);  // no rates logged: channel unused
         }
@@ -163,7 +169,8 @@ struct MotorLag {
       const double dt = d->t_s[k + 1] - d->t_s[k];
       for (int r = 0; r < nr; ++r) {
         const double w0 = d->rotor_speed_rad_s[k][r];
-        const double ref = clamp_speed(model->rotor(r), d->rotor_reference_rad_s[k][r]);  // as advance_motors
+        const double ref =
+            clamp_speed(model->rotor(r), d->rotor_reference_rad_s[k][r]);  // as advance_motors
         const T tau = ref > w0 ? tau_rise : tau_fall;
         const T a = exp(-T(dt) / tau);
         res[i * static_cast<std::size_t>(nr) + static_cast<std::size_t>(r)] =
@@ -194,9 +201,12 @@ struct OutputError {
       const RotorVector& speeds = d->rotor_speed_rad_s[k];
       for (int s = 0; s < sub; ++s) {  // RK4 with the rotor speeds held, as the simulator steps
         const StateVectorT<T> k1 = pm->derivative<T, T>(th.data(), x, speeds);
-        const StateVectorT<T> k2 = pm->derivative<T, T>(th.data(), StateVectorT<T>(x + (h / T(2)) * k1), speeds);
-        const StateVectorT<T> k3 = pm->derivative<T, T>(th.data(), StateVectorT<T>(x + (h / T(2)) * k2), speeds);
-        const StateVectorT<T> k4 = pm->derivative<T, T>(th.data(), StateVectorT<T>(x + h * k3), speeds);
+        const StateVectorT<T> k2 =
+            pm->derivative<T, T>(th.data(), StateVectorT<T>(x + (h / T(2)) * k1), speeds);
+        const StateVectorT<T> k3 =
+            pm->derivative<T, T>(th.data(), StateVectorT<T>(x + (h / T(2)) * k2), speeds);
+        const StateVectorT<T> k4 =
+            pm->derivative<T, T>(th.data(), StateVectorT<T>(x + h * k3), speeds);
         x += (h / T(6)) * (k1 + T(2) * k2 + T(2) * k3 + k4);
         const T qn = x.template segment<4>(6).norm();
         x.template segment<4>(6) /= qn;
@@ -257,8 +267,9 @@ struct Channels {  // sums of squares and counts per channel (unweighted)
 };
 
 // Unweighted residuals of every channel at `block`, on `intervals` and `windows`.
-Channels evaluate(const Setup& s, const std::vector<double>& block, const std::vector<int>& intervals,
-                  const std::vector<int>& windows, bool eq, bool out, bool motor) {
+Channels evaluate(const Setup& s, const std::vector<double>& block,
+                  const std::vector<int>& intervals, const std::vector<int>& windows, bool eq,
+                  bool out, bool motor) {
   Channels c;
   const double* p[1] = {block.data()};
   if (eq) {
@@ -268,7 +279,8 @@ Channels evaluate(const Setup& s, const std::vector<double>& block, const std::v
     for (std::size_t i = 0; i < intervals.size(); ++i) {
       for (int a = 0; a < 3; ++a) {
         c.lin += r[6 * i + static_cast<std::size_t>(a)] * r[6 * i + static_cast<std::size_t>(a)];
-        c.ang += r[6 * i + 3 + static_cast<std::size_t>(a)] * r[6 * i + 3 + static_cast<std::size_t>(a)];
+        c.ang +=
+            r[6 * i + 3 + static_cast<std::size_t>(a)] * r[6 * i + 3 + static_cast<std::size_t>(a)];
       }
     }
     c.n_eq = 3 * intervals.size();
@@ -301,7 +313,9 @@ Channels evaluate(const Setup& s, const std::vector<double>& block, const std::v
   return c;
 }
 
-double rms(double sum_sq, std::size_t n) { return n ? std::sqrt(sum_sq / static_cast<double>(n)) : kNaN; }
+double rms(double sum_sq, std::size_t n) {
+  return n ? std::sqrt(sum_sq / static_cast<double>(n)) : kNaN;
+}
 
 ResidualStats stats_of(const Channels& c, std::size_t intervals) {
   ResidualStats r;
@@ -346,15 +360,16 @@ void add_costs(ceres::Problem& problem, double* block, const Setup& s, const std
     }
     if (motor) {
       problem.AddResidualBlock(
-          make_cost(new MotorLag{s.d, &s.map, s.model, s.tau_rise_unit, s.tau_fall_unit, chunk, w}, nf,
-                    s.d->num_rotors * static_cast<int>(chunk.size())),
+          make_cost(new MotorLag{s.d, &s.map, s.model, s.tau_rise_unit, s.tau_fall_unit, chunk, w},
+                    nf, s.d->num_rotors * static_cast<int>(chunk.size())),
           nullptr, block);
     }
   }
   if (out) {
     for (int k0 : windows) {
       problem.AddResidualBlock(
-          make_cost(new OutputError{s.pm, s.d, &s.map, k0, s.window_len, 1.0e-3, w}, nf, 12 * s.window_len),
+          make_cost(new OutputError{s.pm, s.d, &s.map, k0, s.window_len, 1.0e-3, w}, nf,
+                    12 * s.window_len),
           nullptr, block);
     }
   }
@@ -364,8 +379,8 @@ struct SolveOutcome {
   int iterations = 0;
   std::string termination;
   bool usable = false;
-  Eigen::MatrixXd covariance;  // of the free block, scaled by sigma^2; empty on failure
-  Eigen::MatrixXd information; // J^T J of the weighted problem (for excitation diagnostics)
+  Eigen::MatrixXd covariance;   // of the free block, scaled by sigma^2; empty on failure
+  Eigen::MatrixXd information;  // J^T J of the weighted problem (for excitation diagnostics)
 };
 
 SolveOutcome solve(const Setup& s, std::vector<double>& block, const std::vector<int>& fit,
@@ -402,9 +417,12 @@ SolveOutcome solve(const Setup& s, std::vector<double>& block, const std::vector
   problem.Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr, &jac);
   outcome.information = Eigen::MatrixXd::Zero(nf, nf);
   for (int row = 0; row < jac.num_rows; ++row) {
-    for (int a = jac.rows[static_cast<std::size_t>(row)]; a < jac.rows[static_cast<std::size_t>(row) + 1]; ++a) {
-      for (int b = jac.rows[static_cast<std::size_t>(row)]; b < jac.rows[static_cast<std::size_t>(row) + 1]; ++b) {
-        outcome.information(jac.cols[static_cast<std::size_t>(a)], jac.cols[static_cast<std::size_t>(b)]) +=
+    for (int a = jac.rows[static_cast<std::size_t>(row)];
+         a < jac.rows[static_cast<std::size_t>(row) + 1]; ++a) {
+      for (int b = jac.rows[static_cast<std::size_t>(row)];
+           b < jac.rows[static_cast<std::size_t>(row) + 1]; ++b) {
+        outcome.information(jac.cols[static_cast<std::size_t>(a)],
+                            jac.cols[static_cast<std::size_t>(b)]) +=
             jac.values[static_cast<std::size_t>(a)] * jac.values[static_cast<std::size_t>(b)];
       }
     }
@@ -449,7 +467,8 @@ FlightData flight_data_from_log(const LogTable& log, int num_rotors, bool prefer
   d.has_body_rates = has(prefix + "wx");
   const int state_columns = d.has_body_rates ? kStateSize : 10;
   std::array<std::size_t, kStateSize> cs{};
-  for (int i = 0; i < state_columns; ++i) cs[static_cast<std::size_t>(i)] = log.column(prefix + kStateNames[i]);
+  for (int i = 0; i < state_columns; ++i)
+    cs[static_cast<std::size_t>(i)] = log.column(prefix + kStateNames[i]);
   const bool has_acc = has("acc_x");
   std::array<std::size_t, 3> ca{};
   if (has_acc) ca = {log.column("acc_x"), log.column("acc_y"), log.column("acc_z")};
@@ -496,7 +515,8 @@ FlightData flight_data_from_log(const LogTable& log, int num_rotors, bool prefer
     }
   }
   if (!d.has_body_rates && n >= 2) {
-    // w_B from successive attitudes: q_{k+1} = q_k (x) exp(w dt / 2), so w ~ 2 vec(q_k^-1 q_{k+1}) / dt.
+    // w_B from successive attitudes: q_{k+1} = q_k (x) exp(w dt / 2), so w ~ 2 vec(q_k^-1 q_{k+1})
+    // / dt.
     for (std::size_t k = 0; k < n; ++k) {
       const std::size_t a = k + 1 < n ? k : k - 1;
       const Vec4 qa = d.state[a].segment<4>(6), qb = d.state[a + 1].segment<4>(6);
@@ -519,7 +539,8 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
   require(o.num_threads >= 1, "fit: num_threads must be >= 1, got ", o.num_threads);
   require(data.num_rotors == model.num_rotors(), data.source, ": the log has ", data.num_rotors,
           " rotors, the model ", model.name(), " has ", model.num_rotors());
-  require(data.state.size() == data.t_s.size() && data.rotor_speed_rad_s.size() == data.t_s.size() &&
+  require(data.state.size() == data.t_s.size() &&
+              data.rotor_speed_rad_s.size() == data.t_s.size() &&
               data.in_contact.size() == data.t_s.size(),
           data.source, ": FlightData columns have different lengths");
 
@@ -540,14 +561,16 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
     require(!data.rotor_reference_rad_s.empty(), data.source,
             ": fitting tau_rise/tau_fall needs the rotor speed references (column omega_ref_0 is "
             "missing)");
-    require(motor.tau_rise_unit > 0.0 && motor.tau_fall_unit > 0.0, model.spec().source,
-            ": tau_rise/tau_fall can only be fitted for a model with motor lag (time constants > 0)");
+    require(
+        motor.tau_rise_unit > 0.0 && motor.tau_fall_unit > 0.0, model.spec().source,
+        ": tau_rise/tau_fall can only be fitted for a model with motor lag (time constants > 0)");
   }
   if (!data.has_body_rates) {
     for (ModelParameter p : o.parameters) {
-      const bool angular_only = p == ModelParameter::kInertiaXX || p == ModelParameter::kInertiaYY ||
-                                p == ModelParameter::kInertiaZZ || p == ModelParameter::kYawMomentPerThrust ||
-                                p == ModelParameter::kDragMoment || p == ModelParameter::kRollingMoment;
+      const bool angular_only =
+          p == ModelParameter::kInertiaXX || p == ModelParameter::kInertiaYY ||
+          p == ModelParameter::kInertiaZZ || p == ModelParameter::kYawMomentPerThrust ||
+          p == ModelParameter::kDragMoment || p == ModelParameter::kRollingMoment;
       require(!angular_only, data.source, ": fitting ", parameter_name(p),
               " needs the body rates (columns wx, wy, wz are missing); it acts on the angular "
               "accelerations only");
@@ -574,13 +597,15 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
   const std::vector<int> fit_windows =
       body.use_out ? pick_windows(split.fit, body.window_len, o.max_windows) : std::vector<int>{};
   const std::vector<int> holdout_windows =
-      body.use_out ? pick_windows(split.holdout, body.window_len, o.max_windows) : std::vector<int>{};
+      body.use_out ? pick_windows(split.holdout, body.window_len, o.max_windows)
+                   : std::vector<int>{};
   require(!body.use_out || !fit_windows.empty(), data.source, ": no stretch of ", body.window_len,
           " gap-free airborne intervals for an output-error window of ", o.window_s, " s");
   r.windows = fit_windows.size();
   if (!data.has_body_rates) {
-    r.warnings.push_back("the log has no body rates: they were derived from successive attitudes and the "
-                         "angular accelerations were not fitted");
+    r.warnings.push_back(
+        "the log has no body rates: they were derived from successive attitudes and the "
+        "angular accelerations were not fitted");
   }
 
   struct SubFit {
@@ -589,27 +614,40 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
   };
   Channels before_fit, before_holdout, after_fit, after_holdout;
   const auto merge = [](Channels& into, const Channels& c) {
-    into.lin += c.lin; into.ang += c.ang; into.pos += c.pos; into.vel += c.vel; into.att += c.att;
-    into.rate += c.rate; into.mot += c.mot;
-    into.n_eq += c.n_eq; into.n_out += c.n_out; into.n_mot += c.n_mot;
+    into.lin += c.lin;
+    into.ang += c.ang;
+    into.pos += c.pos;
+    into.vel += c.vel;
+    into.att += c.att;
+    into.rate += c.rate;
+    into.mot += c.mot;
+    into.n_eq += c.n_eq;
+    into.n_out += c.n_out;
+    into.n_mot += c.n_mot;
   };
   const auto run = [&](const Setup& s) {
     SubFit f;
     for (int j : s.map.free) f.block.push_back(s.map.fixed[static_cast<std::size_t>(j)]);
     f.initial = f.block;
     const bool eq_stats = s.use_eq || s.use_out;  // accelerations are reported either way
-    merge(before_fit, evaluate(s, f.block, split.fit, fit_windows, eq_stats, s.use_out, s.use_motor));
+    merge(before_fit,
+          evaluate(s, f.block, split.fit, fit_windows, eq_stats, s.use_out, s.use_motor));
     merge(before_holdout,
           evaluate(s, f.block, split.holdout, holdout_windows, eq_stats, s.use_out, s.use_motor));
     // Stage 1: the cheaper problem (equation error when asked for) with unit weights.
     const bool eq1 = s.use_eq, out1 = s.use_out && !s.use_eq;
-    const SolveOutcome o1 = solve(s, f.block, split.fit, fit_windows, Weights{}, eq1, out1, s.use_motor, o, false);
+    const SolveOutcome o1 =
+        solve(s, f.block, split.fit, fit_windows, Weights{}, eq1, out1, s.use_motor, o, false);
     // Stage 2: everything asked for, each channel weighted by 1/RMS at the stage-1 solution.
-    const Weights w = weights_from(evaluate(s, f.block, split.fit, fit_windows, s.use_eq, s.use_out, s.use_motor));
-    f.outcome = solve(s, f.block, split.fit, fit_windows, w, s.use_eq, s.use_out, s.use_motor, o, true);
+    const Weights w = weights_from(
+        evaluate(s, f.block, split.fit, fit_windows, s.use_eq, s.use_out, s.use_motor));
+    f.outcome =
+        solve(s, f.block, split.fit, fit_windows, w, s.use_eq, s.use_out, s.use_motor, o, true);
     f.outcome.iterations += o1.iterations;
-    merge(after_fit, evaluate(s, f.block, split.fit, fit_windows, eq_stats, s.use_out, s.use_motor));
-    merge(after_holdout, evaluate(s, f.block, split.holdout, holdout_windows, eq_stats, s.use_out, s.use_motor));
+    merge(after_fit,
+          evaluate(s, f.block, split.fit, fit_windows, eq_stats, s.use_out, s.use_motor));
+    merge(after_holdout,
+          evaluate(s, f.block, split.holdout, holdout_windows, eq_stats, s.use_out, s.use_motor));
     return f;
   };
   std::vector<std::pair<const Setup*, SubFit>> fits;
@@ -633,13 +671,16 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
     initial.insert(initial.end(), f.initial.begin(), f.initial.end());
     block.insert(block.end(), f.block.begin(), f.block.end());
     free.insert(free.end(), setup->map.free.begin(), setup->map.free.end());
-    if (f.outcome.covariance.size()) covariance.block(off, off, n, n) = f.outcome.covariance;
-    else covariance_ok = false;
+    if (f.outcome.covariance.size())
+      covariance.block(off, off, n, n) = f.outcome.covariance;
+    else
+      covariance_ok = false;
     if (f.outcome.information.size()) information.block(off, off, n, n) = f.outcome.information;
     usable = usable && f.outcome.usable;
     r.iterations += f.outcome.iterations;
     terminations.push_back(f.outcome.termination);
-    if (!f.outcome.usable) r.warnings.push_back("Ceres did not reach a usable solution (" + f.outcome.termination + ")");
+    if (!f.outcome.usable)
+      r.warnings.push_back("Ceres did not reach a usable solution (" + f.outcome.termination + ")");
   }
   r.termination = terminations.front();
   for (std::size_t i = 1; i < terminations.size(); ++i) {
@@ -660,8 +701,9 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
     fp.unit = std::string(parameter_unit(p));
     fp.initial = pm.value(p, initial[static_cast<std::size_t>(i)]);
     fp.estimate = pm.value(p, block[static_cast<std::size_t>(i)]);
-    fp.std_error = o2.covariance.size() ? std::abs(pm.value(p, std::sqrt(std::max(0.0, o2.covariance(i, i)))))
-                                        : kNaN;
+    fp.std_error = o2.covariance.size()
+                       ? std::abs(pm.value(p, std::sqrt(std::max(0.0, o2.covariance(i, i)))))
+                       : kNaN;
     r.parameters.push_back(fp);
     set_parameter_value(r.fitted_spec, p, fp.estimate);
   }
@@ -670,7 +712,8 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
     r.correlation = Eigen::MatrixXd::Identity(nf, nf);
     for (int i = 0; i < nf; ++i) {
       for (int j = 0; j < nf; ++j) {
-        if (i != j && sd[i] > 0 && sd[j] > 0) r.correlation(i, j) = o2.covariance(i, j) / (sd[i] * sd[j]);
+        if (i != j && sd[i] > 0 && sd[j] > 0)
+          r.correlation(i, j) = o2.covariance(i, j) / (sd[i] * sd[j]);
       }
     }
     // A correlation only matters when it costs precision: warn for a parameter whose standard
@@ -682,22 +725,27 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
       if (rel <= 0.05) continue;
       int partner = -1;
       for (int j = 0; j < nf; ++j) {
-        if (j != i && (partner < 0 || std::abs(r.correlation(i, j)) > std::abs(r.correlation(i, partner)))) partner = j;
+        if (j != i &&
+            (partner < 0 || std::abs(r.correlation(i, j)) > std::abs(r.correlation(i, partner))))
+          partner = j;
       }
       std::string why = " of the estimate: the flight does not excite it enough to identify it";
       if (partner >= 0 && std::abs(r.correlation(i, partner)) > 0.9) {
-        why = " of the estimate: it is correlated with " + r.parameters[static_cast<std::size_t>(partner)].name +
-              " (r = " + fmt(r.correlation(i, partner), 4) + "); fix one of them or fly a richer flight";
+        why = " of the estimate: it is correlated with " +
+              r.parameters[static_cast<std::size_t>(partner)].name +
+              " (r = " + fmt(r.correlation(i, partner), 4) +
+              "); fix one of them or fly a richer flight";
       }
-      r.warnings.push_back(fp.name + ": standard error " + fmt(fp.std_error, 3) + " " + fp.unit + " is " +
-                           fmt(100.0 * rel, 3) + " %" + why);
+      r.warnings.push_back(fp.name + ": standard error " + fmt(fp.std_error, 3) + " " + fp.unit +
+                           " is " + fmt(100.0 * rel, 3) + " %" + why);
     }
     for (int i = 0; i < nf; ++i) {
       for (int j = i + 1; j < nf; ++j) {
         if (std::abs(r.correlation(i, j)) > 0.999) {
           r.warnings.push_back(r.parameters[static_cast<std::size_t>(i)].name + " and " +
-                               r.parameters[static_cast<std::size_t>(j)].name + " are nearly collinear (r = " +
-                               fmt(r.correlation(i, j), 6) + "): only a combination of them is identified");
+                               r.parameters[static_cast<std::size_t>(j)].name +
+                               " are nearly collinear (r = " + fmt(r.correlation(i, j), 6) +
+                               "): only a combination of them is identified");
         }
       }
     }
@@ -706,18 +754,21 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
     // column-normalised information matrix).
     std::string weakest;
     if (o2.information.size()) {
-      const Eigen::VectorXd scale = o2.information.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+      const Eigen::VectorXd scale =
+          o2.information.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
       const Eigen::MatrixXd normalised = scale.asDiagonal() * o2.information * scale.asDiagonal();
       Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(normalised);
       const Eigen::VectorXd v = es.eigenvectors().col(0);
       for (int i = 0; i < nf; ++i) {
-        if (std::abs(v[i]) > 0.2) weakest += (weakest.empty() ? "" : ", ") + r.parameters[static_cast<std::size_t>(i)].name;
+        if (std::abs(v[i]) > 0.2)
+          weakest += (weakest.empty() ? "" : ", ") + r.parameters[static_cast<std::size_t>(i)].name;
       }
     }
-    r.warnings.push_back("covariance: the Jacobian is rank deficient, so the parameters cannot all be "
-                         "identified from this flight (the combination of " +
-                         (weakest.empty() ? std::string("some of them") : weakest) +
-                         " is not seen by the data); standard errors are not available");
+    r.warnings.push_back(
+        "covariance: the Jacobian is rank deficient, so the parameters cannot all be "
+        "identified from this flight (the combination of " +
+        (weakest.empty() ? std::string("some of them") : weakest) +
+        " is not seen by the data); standard errors are not available");
   }
   for (const FittedParameter& fp : r.parameters) {
     if (fp.initial != 0.0 && std::abs(fp.estimate / fp.initial - 1.0) > 1.0) {
@@ -730,7 +781,8 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
   } catch (const InvalidArgument& e) {
     r.warnings.push_back(std::string("the fitted model is not a valid model: ") + e.what());
   }
-  r.solve_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  r.solve_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return r;
 }
 
@@ -738,34 +790,36 @@ std::string format_fit_report(const FitResult& r) {
   std::ostringstream out;
   out << "rows " << r.rows << ", median dt " << fmt(r.median_dt_s, 4) << " s, intervals fitted "
       << r.intervals_used << ", held out " << r.intervals_holdout << ", gaps " << r.gaps
-      << ", rows in contact " << r.contact_rows << ", low or rotor-stopped rows left out " << r.excluded_rows
-      << ", output-error windows " << r.windows << "\n";
+      << ", rows in contact " << r.contact_rows << ", low or rotor-stopped rows left out "
+      << r.excluded_rows << ", output-error windows " << r.windows << "\n";
   out << "Ceres: " << r.iterations << " iterations, " << r.termination << ", "
       << fmt(r.solve_time_s, 3) << " s\n\n";
   char line[256];
-  std::snprintf(line, sizeof line, "%-22s %14s %14s %12s %9s  %s\n", "parameter", "initial", "estimate",
-                "std error", "change", "unit");
+  std::snprintf(line, sizeof line, "%-22s %14s %14s %12s %9s  %s\n", "parameter", "initial",
+                "estimate", "std error", "change", "unit");
   out << line;
   for (const FittedParameter& p : r.parameters) {
-    std::snprintf(line, sizeof line, "%-22s %14.6g %14.6g %12.3g %8.2f%%  %s\n", p.name.c_str(), p.initial,
-                  p.estimate, p.std_error, p.initial != 0.0 ? 100.0 * (p.estimate / p.initial - 1.0) : 0.0,
-                  p.unit.c_str());
+    std::snprintf(line, sizeof line, "%-22s %14.6g %14.6g %12.3g %8.2f%%  %s\n", p.name.c_str(),
+                  p.initial, p.estimate, p.std_error,
+                  p.initial != 0.0 ? 100.0 * (p.estimate / p.initial - 1.0) : 0.0, p.unit.c_str());
     out << line;
   }
-  out << "\nresidual RMS                     fit before    fit after  holdout before holdout after\n";
+  out << "\nresidual RMS                     fit before    fit after  holdout before holdout "
+         "after\n";
   const auto stat = [&](const char* what, double a, double b, double c, double d) {
     std::snprintf(line, sizeof line, "%-30s %12.4g %12.4g %14.4g %13.4g\n", what, a, b, c, d);
     out << line;
   };
-  stat("linear acceleration, m/s^2", r.fit_before.linear_acceleration_m_s2, r.fit_after.linear_acceleration_m_s2,
-       r.holdout_before.linear_acceleration_m_s2, r.holdout_after.linear_acceleration_m_s2);
+  stat("linear acceleration, m/s^2", r.fit_before.linear_acceleration_m_s2,
+       r.fit_after.linear_acceleration_m_s2, r.holdout_before.linear_acceleration_m_s2,
+       r.holdout_after.linear_acceleration_m_s2);
   stat("angular acceleration, rad/s^2", r.fit_before.angular_acceleration_rad_s2,
        r.fit_after.angular_acceleration_rad_s2, r.holdout_before.angular_acceleration_rad_s2,
        r.holdout_after.angular_acceleration_rad_s2);
-  stat("window position, m", r.fit_before.position_m, r.fit_after.position_m, r.holdout_before.position_m,
-       r.holdout_after.position_m);
-  stat("window attitude, rad", r.fit_before.attitude_rad, r.fit_after.attitude_rad, r.holdout_before.attitude_rad,
-       r.holdout_after.attitude_rad);
+  stat("window position, m", r.fit_before.position_m, r.fit_after.position_m,
+       r.holdout_before.position_m, r.holdout_after.position_m);
+  stat("window attitude, rad", r.fit_before.attitude_rad, r.fit_after.attitude_rad,
+       r.holdout_before.attitude_rad, r.holdout_after.attitude_rad);
   stat("motor speed, rad/s", r.fit_before.motor_speed_rad_s, r.fit_after.motor_speed_rad_s,
        r.holdout_before.motor_speed_rad_s, r.holdout_after.motor_speed_rad_s);
   if (!r.warnings.empty()) {
@@ -781,7 +835,10 @@ std::string json_text(const std::string& s) {
   std::string o = "\"";
   for (char c : s) {
     if (c == '"' || c == '\\') o += '\\';
-    if (c == '\n') { o += "\\n"; continue; }
+    if (c == '\n') {
+      o += "\\n";
+      continue;
+    }
     o += c;
   }
   return o + "\"";
@@ -790,7 +847,8 @@ std::string json_stats(const ResidualStats& s) {
   return "{\"intervals\": " + std::to_string(s.intervals) +
          ", \"linear_acceleration_m_s2\": " + json_number(s.linear_acceleration_m_s2) +
          ", \"angular_acceleration_rad_s2\": " + json_number(s.angular_acceleration_rad_s2) +
-         ", \"position_m\": " + json_number(s.position_m) + ", \"attitude_rad\": " + json_number(s.attitude_rad) +
+         ", \"position_m\": " + json_number(s.position_m) +
+         ", \"attitude_rad\": " + json_number(s.attitude_rad) +
          ", \"motor_speed_rad_s\": " + json_number(s.motor_speed_rad_s) + "}";
 }
 }  // namespace
@@ -800,26 +858,32 @@ std::string fit_result_to_json(const FitResult& r) {
   out << "{\n  \"parameters\": [";
   for (std::size_t i = 0; i < r.parameters.size(); ++i) {
     const FittedParameter& p = r.parameters[i];
-    out << (i ? ",\n    " : "\n    ") << "{\"name\": " << json_text(p.name) << ", \"unit\": " << json_text(p.unit)
-        << ", \"initial\": " << json_number(p.initial) << ", \"estimate\": " << json_number(p.estimate)
+    out << (i ? ",\n    " : "\n    ") << "{\"name\": " << json_text(p.name)
+        << ", \"unit\": " << json_text(p.unit) << ", \"initial\": " << json_number(p.initial)
+        << ", \"estimate\": " << json_number(p.estimate)
         << ", \"std_error\": " << json_number(p.std_error) << "}";
   }
   out << "\n  ],\n  \"correlation\": [";
   for (Eigen::Index i = 0; i < r.correlation.rows(); ++i) {
     out << (i ? ", [" : "[");
-    for (Eigen::Index j = 0; j < r.correlation.cols(); ++j) out << (j ? ", " : "") << json_number(r.correlation(i, j));
+    for (Eigen::Index j = 0; j < r.correlation.cols(); ++j)
+      out << (j ? ", " : "") << json_number(r.correlation(i, j));
     out << "]";
   }
   out << "],\n  \"warnings\": [";
-  for (std::size_t i = 0; i < r.warnings.size(); ++i) out << (i ? ", " : "") << json_text(r.warnings[i]);
-  out << "],\n  \"fit_before\": " << json_stats(r.fit_before) << ",\n  \"fit_after\": " << json_stats(r.fit_after)
+  for (std::size_t i = 0; i < r.warnings.size(); ++i)
+    out << (i ? ", " : "") << json_text(r.warnings[i]);
+  out << "],\n  \"fit_before\": " << json_stats(r.fit_before)
+      << ",\n  \"fit_after\": " << json_stats(r.fit_after)
       << ",\n  \"holdout_before\": " << json_stats(r.holdout_before)
       << ",\n  \"holdout_after\": " << json_stats(r.holdout_after) << ",\n  \"rows\": " << r.rows
-      << ",\n  \"intervals_used\": " << r.intervals_used << ",\n  \"intervals_holdout\": " << r.intervals_holdout
-      << ",\n  \"gaps\": " << r.gaps << ",\n  \"contact_rows\": " << r.contact_rows
-      << ",\n  \"excluded_rows\": " << r.excluded_rows
-      << ",\n  \"windows\": " << r.windows << ",\n  \"median_dt_s\": " << json_number(r.median_dt_s)
-      << ",\n  \"iterations\": " << r.iterations << ",\n  \"termination\": " << json_text(r.termination)
+      << ",\n  \"intervals_used\": " << r.intervals_used
+      << ",\n  \"intervals_holdout\": " << r.intervals_holdout << ",\n  \"gaps\": " << r.gaps
+      << ",\n  \"contact_rows\": " << r.contact_rows
+      << ",\n  \"excluded_rows\": " << r.excluded_rows << ",\n  \"windows\": " << r.windows
+      << ",\n  \"median_dt_s\": " << json_number(r.median_dt_s)
+      << ",\n  \"iterations\": " << r.iterations
+      << ",\n  \"termination\": " << json_text(r.termination)
       << ",\n  \"solve_time_s\": " << json_number(r.solve_time_s) << "\n}\n";
   return out.str();
 }

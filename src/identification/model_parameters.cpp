@@ -62,38 +62,61 @@ std::string valid_names() {
 template <class Rotor>
 auto rotor_field(Rotor& r, ModelParameter p) -> decltype(&r.rotor_drag_coefficient) {
   switch (p) {
-    case P::kThrustK1: return &r.thrust_coefficients[0];
-    case P::kThrustK2: return &r.thrust_coefficients[1];
-    case P::kThrustK3: return &r.thrust_coefficients[2];
-    case P::kYawMomentPerThrust: return &r.yaw_moment_per_thrust_m;
-    case P::kDragMoment: return &r.drag_moment_coefficient;
-    case P::kRotorDrag: return &r.rotor_drag_coefficient;
-    case P::kRollingMoment: return &r.rolling_moment_coefficient;
-    case P::kGroundEffect: return &r.ground_effect_coefficient;
-    case P::kTauRise: return &r.time_constant_rise_s;
-    case P::kTauFall: return &r.time_constant_fall_s;
-    default: return nullptr;
+    case P::kThrustK1:
+      return &r.thrust_coefficients[0];
+    case P::kThrustK2:
+      return &r.thrust_coefficients[1];
+    case P::kThrustK3:
+      return &r.thrust_coefficients[2];
+    case P::kYawMomentPerThrust:
+      return &r.yaw_moment_per_thrust_m;
+    case P::kDragMoment:
+      return &r.drag_moment_coefficient;
+    case P::kRotorDrag:
+      return &r.rotor_drag_coefficient;
+    case P::kRollingMoment:
+      return &r.rolling_moment_coefficient;
+    case P::kGroundEffect:
+      return &r.ground_effect_coefficient;
+    case P::kTauRise:
+      return &r.time_constant_rise_s;
+    case P::kTauFall:
+      return &r.time_constant_fall_s;
+    default:
+      return nullptr;
   }
 }
 
 template <class Spec>
 auto body_field(Spec& s, ModelParameter p) -> decltype(&s.mass_kg) {
   switch (p) {
-    case P::kMass: return &s.mass_kg;
-    case P::kInertiaXX: return &s.inertia_kgm2(0, 0);
-    case P::kInertiaYY: return &s.inertia_kgm2(1, 1);
-    case P::kInertiaZZ: return &s.inertia_kgm2(2, 2);
-    case P::kBodyDragX: return &s.body_drag_Ns_per_m(0, 0);
-    case P::kBodyDragY: return &s.body_drag_Ns_per_m(1, 1);
-    case P::kBodyDragZ: return &s.body_drag_Ns_per_m(2, 2);
-    default: return nullptr;
+    case P::kMass:
+      return &s.mass_kg;
+    case P::kInertiaXX:
+      return &s.inertia_kgm2(0, 0);
+    case P::kInertiaYY:
+      return &s.inertia_kgm2(1, 1);
+    case P::kInertiaZZ:
+      return &s.inertia_kgm2(2, 2);
+    case P::kBodyDragX:
+      return &s.body_drag_Ns_per_m(0, 0);
+    case P::kBodyDragY:
+      return &s.body_drag_Ns_per_m(1, 1);
+    case P::kBodyDragZ:
+      return &s.body_drag_Ns_per_m(2, 2);
+    default:
+      return nullptr;
   }
 }
 
 }  // namespace
 
-std::string_view parameter_name(ModelParameter p) { return kInfo[static_cast<std::size_t>(p)].name; }
-std::string_view parameter_unit(ModelParameter p) { return kInfo[static_cast<std::size_t>(p)].unit; }
+std::string_view parameter_name(ModelParameter p) {
+  return kInfo[static_cast<std::size_t>(p)].name;
+}
+std::string_view parameter_unit(ModelParameter p) {
+  return kInfo[static_cast<std::size_t>(p)].unit;
+}
 
 std::vector<ModelParameter> parse_parameter_list(std::string_view list) {
   std::array<bool, kNumModelParameters> chosen{};
@@ -109,7 +132,8 @@ std::vector<ModelParameter> parse_parameter_list(std::string_view list) {
             " (valid: ", valid_names(), ")");
     bool known = false;
     for (int i = 0; i < kNumModelParameters; ++i) {
-      if (kInfo[static_cast<std::size_t>(i)].name == item) chosen[static_cast<std::size_t>(i)] = known = true;
+      if (kInfo[static_cast<std::size_t>(i)].name == item)
+        chosen[static_cast<std::size_t>(i)] = known = true;
     }
     for (const auto& g : groups()) {
       if (g.name != item) continue;

@@ -10,18 +10,35 @@ namespace {
 double typical_magnitude(ModelParameter p) {
   using P = ModelParameter;
   switch (p) {
-    case P::kMass: return 1.0;
-    case P::kInertiaXX: case P::kInertiaYY: case P::kInertiaZZ: return 1e-2;
-    case P::kThrustK1: return 1e-6;
-    case P::kThrustK2: return 1e-4;
-    case P::kThrustK3: return 1e-2;
-    case P::kYawMomentPerThrust: return 1e-2;
-    case P::kDragMoment: return 1e-3;
-    case P::kRotorDrag: return 1e-4;
-    case P::kRollingMoment: return 1e-6;
-    case P::kBodyDragX: case P::kBodyDragY: case P::kBodyDragZ: return 0.1;
-    case P::kGroundEffect: return 1e-3;
-    case P::kTauRise: case P::kTauFall: return 1e-2;
+    case P::kMass:
+      return 1.0;
+    case P::kInertiaXX:
+    case P::kInertiaYY:
+    case P::kInertiaZZ:
+      return 1e-2;
+    case P::kThrustK1:
+      return 1e-6;
+    case P::kThrustK2:
+      return 1e-4;
+    case P::kThrustK3:
+      return 1e-2;
+    case P::kYawMomentPerThrust:
+      return 1e-2;
+    case P::kDragMoment:
+      return 1e-3;
+    case P::kRotorDrag:
+      return 1e-4;
+    case P::kRollingMoment:
+      return 1e-6;
+    case P::kBodyDragX:
+    case P::kBodyDragY:
+    case P::kBodyDragZ:
+      return 0.1;
+    case P::kGroundEffect:
+      return 1e-3;
+    case P::kTauRise:
+    case P::kTauFall:
+      return 1e-2;
   }
   return 1.0;
 }
@@ -74,8 +91,9 @@ ParametricModel::ParametricModel(const VehicleModel& model, const DisturbanceSwi
   inertia_off_diagonal_ = J;
   inertia_off_diagonal_.diagonal().setZero();
   const Mat3& A = spec.body_drag_Ns_per_m;
-  body_drag_diag_unit_ = Vec3(unit(spec, P::kBodyDragX, A(0, 0)), unit(spec, P::kBodyDragY, A(1, 1)),
-                              unit(spec, P::kBodyDragZ, A(2, 2)));
+  body_drag_diag_unit_ =
+      Vec3(unit(spec, P::kBodyDragX, A(0, 0)), unit(spec, P::kBodyDragY, A(1, 1)),
+           unit(spec, P::kBodyDragZ, A(2, 2)));
   body_drag_off_diagonal_ = A;
   body_drag_off_diagonal_.diagonal().setZero();
 }

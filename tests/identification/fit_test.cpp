@@ -30,10 +30,9 @@ struct Change {
 // +-20 %, of mixed sign so no common scale can absorb them. (The inertia keeps J_zz <= J_xx + J_yy,
 // which the QDrone2 nearly saturates: no rigid body violates it, and the model loader checks it.)
 const std::vector<Change> kBodyChanges{
-    {P::kInertiaXX, 1.2},  {P::kInertiaYY, 1.2},          {P::kInertiaZZ, 0.8},
-    {P::kThrustK1, 0.8},   {P::kThrustK2, 1.2},           {P::kThrustK3, 0.8},
-    {P::kRotorDrag, 1.2},  {P::kYawMomentPerThrust, 0.8}, {P::kBodyDragX, 1.2},
-    {P::kBodyDragY, 0.8},  {P::kBodyDragZ, 1.2},          {P::kTauRise, 0.8},
+    {P::kInertiaXX, 1.2}, {P::kInertiaYY, 1.2}, {P::kInertiaZZ, 0.8}, {P::kThrustK1, 0.8},
+    {P::kThrustK2, 1.2},  {P::kThrustK3, 0.8},  {P::kRotorDrag, 1.2}, {P::kYawMomentPerThrust, 0.8},
+    {P::kBodyDragX, 1.2}, {P::kBodyDragY, 0.8}, {P::kBodyDragZ, 1.2}, {P::kTauRise, 0.8},
     {P::kTauFall, 1.2}};
 
 struct Flight {
@@ -42,17 +41,20 @@ struct Flight {
 };
 
 // Flies `experiment` with the QDrone2 changed by `changes` (on top of `base`) and reads it back.
-Flight fly(const std::string& experiment, const VehicleSpec& base, const std::vector<Change>& changes,
-           double duration_s) {
+Flight fly(const std::string& experiment, const VehicleSpec& base,
+           const std::vector<Change>& changes, double duration_s) {
   Flight f;
   f.truth = base;
-  for (const Change& c : changes) set_parameter_value(f.truth, c.parameter, c.factor * parameter_value(base, c.parameter));
+  for (const Change& c : changes)
+    set_parameter_value(f.truth, c.parameter, c.factor * parameter_value(base, c.parameter));
   Experiment e = load_experiment(test::source_path("config/experiments/" + experiment));
   e.duration_s = duration_s;
   const auto dir = std::filesystem::temp_directory_path() /
-                   ("dronetwin_fit_" + experiment + "_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-                    "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-  const RunSummary s = run_experiment(e, std::make_shared<const VehicleModel>(f.truth), dir.string());
+                   ("dronetwin_fit_" + experiment + "_" +
+                    std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+                    ::testing::UnitTest::GetInstance()->current_test_info()->name());
+  const RunSummary s =
+      run_experiment(e, std::make_shared<const VehicleModel>(f.truth), dir.string());
   EXPECT_TRUE(s.ok()) << s.failure_message;
   f.data = flight_data_from_log(read_csv_log((dir / "log.csv").string()), 4);
   std::filesystem::remove_all(dir);
@@ -69,7 +71,8 @@ void expect_recovered(const FitResult& r, const VehicleSpec& truth, double toler
   for (const FittedParameter& p : r.parameters) {
     const double expected = parameter_value(truth, p.parameter);
     EXPECT_NEAR(p.estimate / expected, 1.0, tolerance)
-        << p.name << ": fitted " << p.estimate << ", true " << expected << ", started from " << p.initial;
+        << p.name << ": fitted " << p.estimate << ", true " << expected << ", started from "
+        << p.initial;
   }
 }
 
@@ -84,8 +87,10 @@ TEST(FitRecovery, NoiseOffRecoversEveryChangedParameterWithinOnePercent) {
   expect_recovered(r, f.truth, 0.01);
   // The fit explains the held-out part of the flight as well as the fitted part, and far
   // better than the starting model did (the starting model is 20 % off).
-  EXPECT_LT(r.holdout_after.linear_acceleration_m_s2, 0.01 * r.holdout_before.linear_acceleration_m_s2);
-  EXPECT_LT(r.holdout_after.angular_acceleration_rad_s2, 0.01 * r.holdout_before.angular_acceleration_rad_s2);
+  EXPECT_LT(r.holdout_after.linear_acceleration_m_s2,
+            0.01 * r.holdout_before.linear_acceleration_m_s2);
+  EXPECT_LT(r.holdout_after.angular_acceleration_rad_s2,
+            0.01 * r.holdout_before.angular_acceleration_rad_s2);
   EXPECT_LT(r.holdout_after.motor_speed_rad_s, 0.01 * r.holdout_before.motor_speed_rad_s);
   // Standard errors exist and the truth lies within a few of them... of round-off size here.
   for (const FittedParameter& p : r.parameters) EXPECT_TRUE(std::isfinite(p.std_error)) << p.name;
@@ -96,8 +101,11 @@ TEST(FitRecovery, NoiseOffRecoversEveryChangedParameterWithinOnePercent) {
 
 TEST(FitRecovery, OutputErrorAloneRecoversWithinOnePercent) {
   const auto nominal = test::load_model("qdrone2");
-  const std::vector<Change> changes{{P::kInertiaXX, 1.2}, {P::kInertiaZZ, 0.8}, {P::kThrustK1, 1.2},
-                                    {P::kRotorDrag, 0.8}, {P::kBodyDragZ, 1.2}};
+  const std::vector<Change> changes{{P::kInertiaXX, 1.2},
+                                    {P::kInertiaZZ, 0.8},
+                                    {P::kThrustK1, 1.2},
+                                    {P::kRotorDrag, 0.8},
+                                    {P::kBodyDragZ, 1.2}};
   const Flight f = fly("identification_flight.yaml", nominal->spec(), changes, 20.0);
   FitOptions o;
   o.parameters = parameters_of(changes);
@@ -140,11 +148,13 @@ TEST(FitRecovery, OuNoiseOnRecoversWithinFivePercentFromTheMeasuredState) {
       // flight pins it to about +-1 mN only. The fit must say so, and its error must be within
       // what its standard error admits (5 sigma: OU noise is correlated, so sigma is optimistic).
       EXPECT_NE(warnings.find("thrust_k3"), std::string::npos) << warnings;
-      EXPECT_LT(std::abs(p.estimate - expected), 5.0 * p.std_error) << p.estimate << " vs " << expected;
+      EXPECT_LT(std::abs(p.estimate - expected), 5.0 * p.std_error)
+          << p.estimate << " vs " << expected;
       continue;
     }
     EXPECT_NEAR(p.estimate / expected, 1.0, 0.05)
-        << p.name << ": fitted " << p.estimate << ", true " << expected << ", started from " << p.initial;
+        << p.name << ": fitted " << p.estimate << ", true " << expected << ", started from "
+        << p.initial;
   }
   EXPECT_LT(r.holdout_after.position_m, r.holdout_before.position_m);
 }
@@ -160,7 +170,8 @@ TEST(FitDiagnostics, YawMomentAndDragMomentTogetherAreReportedAsNotIdentifiable)
   std::string all;
   for (const std::string& w : r.warnings) all += w + "\n";
   EXPECT_NE(all.find("drag_moment"), std::string::npos) << all;
-  EXPECT_TRUE(all.find("collinear") != std::string::npos || all.find("rank deficient") != std::string::npos ||
+  EXPECT_TRUE(all.find("collinear") != std::string::npos ||
+              all.find("rank deficient") != std::string::npos ||
               all.find("correlated") != std::string::npos)
       << all;
 }
@@ -170,7 +181,8 @@ TEST(FitDiagnostics, MassWithEveryForceAndInertiaIsFlagged) {
   // through the small gyroscopic and rolling moments: the mass is then (almost) not identifiable.
   // Here those moments are off (in the flight and in the fit), so the scale is exactly free.
   const auto model = test::load_model("qdrone2");
-  Experiment e = load_experiment(test::source_path("config/experiments/identification_flight.yaml"));
+  Experiment e =
+      load_experiment(test::source_path("config/experiments/identification_flight.yaml"));
   e.duration_s = 10.0;
   e.disturbances.gyroscopic = e.disturbances.rolling_moment = false;
   const auto dir = std::filesystem::temp_directory_path() / "dronetwin_fit_mass_scale";
@@ -178,7 +190,8 @@ TEST(FitDiagnostics, MassWithEveryForceAndInertiaIsFlagged) {
   const FlightData data = flight_data_from_log(read_csv_log((dir / "log.csv").string()), 4);
   std::filesystem::remove_all(dir);
   FitOptions o;
-  o.parameters = parse_parameter_list("mass,thrust,body_drag,rotor_drag,inertia,yaw_moment_per_thrust");
+  o.parameters =
+      parse_parameter_list("mass,thrust,body_drag,rotor_drag,inertia,yaw_moment_per_thrust");
   o.method = FitMethod::kEquationError;
   o.switches = e.disturbances;
   const FitResult r = fit_model(*model, data, o);
@@ -196,7 +209,8 @@ TEST(FitData, GapsAndContactRowsAreSkippedAndTheFitStillRecovers) {
   for (const auto& [from, count] : std::vector<std::pair<int, int>>{{5000, 50}, {2000, 100}}) {
     d.t_s.erase(d.t_s.begin() + from, d.t_s.begin() + from + count);
     d.state.erase(d.state.begin() + from, d.state.begin() + from + count);
-    d.rotor_speed_rad_s.erase(d.rotor_speed_rad_s.begin() + from, d.rotor_speed_rad_s.begin() + from + count);
+    d.rotor_speed_rad_s.erase(d.rotor_speed_rad_s.begin() + from,
+                              d.rotor_speed_rad_s.begin() + from + count);
     d.rotor_reference_rad_s.erase(d.rotor_reference_rad_s.begin() + from,
                                   d.rotor_reference_rad_s.begin() + from + count);
     d.in_contact.erase(d.in_contact.begin() + from, d.in_contact.begin() + from + count);
@@ -214,10 +228,14 @@ TEST(FitData, ALogAtAThirdOfThePhysicsRateStillRecovers) {
   // Every 3rd row (333 Hz): the rotor speeds now change inside an interval, so holding the row's
   // speeds is an approximation; the fit must still land within the noise-free 1 %.
   const auto nominal = test::load_model("qdrone2");
-  const std::vector<Change> changes{{P::kThrustK1, 1.2}, {P::kInertiaZZ, 0.8}, {P::kBodyDragX, 1.2}};
+  const std::vector<Change> changes{
+      {P::kThrustK1, 1.2}, {P::kInertiaZZ, 0.8}, {P::kBodyDragX, 1.2}};
   const Flight f = fly("identification_flight.yaml", nominal->spec(), changes, 20.0);
   FlightData slow = f.data;
-  slow.t_s.clear(); slow.state.clear(); slow.rotor_speed_rad_s.clear(); slow.in_contact.clear();
+  slow.t_s.clear();
+  slow.state.clear();
+  slow.rotor_speed_rad_s.clear();
+  slow.in_contact.clear();
   slow.rotor_reference_rad_s.clear();
   for (std::size_t k = 0; k < f.data.t_s.size(); k += 3) {
     slow.t_s.push_back(f.data.t_s[k]);
@@ -235,7 +253,8 @@ TEST(FitData, ALogAtAThirdOfThePhysicsRateStillRecovers) {
 TEST(FitData, MissingColumnsAndBadOptionsAreNamed) {
   LogTable t;
   t.source = "flight.csv";
-  t.columns = {"t", "x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "wx", "wy", "wz", "omega_0"};
+  t.columns = {"t",  "x",  "y",  "z",  "vx", "vy", "vz",     "qw",
+               "qx", "qy", "qz", "wx", "wy", "wz", "omega_0"};
   t.values.assign(2 * t.columns.size(), 0.0);
   t.values[7] = t.values[t.columns.size() + 7] = 1.0;
   t.values[t.columns.size()] = 0.001;
@@ -254,7 +273,9 @@ TEST(FitData, MissingColumnsAndBadOptionsAreNamed) {
   f.data.rotor_reference_rad_s.clear();
   e = test::error_of([&] { (void)fit_model(*model, f.data, o); });
   EXPECT_NE(e.find("omega_ref_0"), std::string::npos) << e;
-  EXPECT_NE(test::error_of([] { (void)parse_parameter_list("thrust,mas"); }).find("unknown parameter 'mas'"),
+  EXPECT_NE(test::error_of([] {
+              (void)parse_parameter_list("thrust,mas");
+            }).find("unknown parameter 'mas'"),
             std::string::npos);
 }
 

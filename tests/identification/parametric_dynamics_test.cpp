@@ -16,7 +16,7 @@ namespace dronetwin {
 namespace {
 
 DisturbanceSwitches switches_from_bits(int bits) {
-  return {(bits & 1) != 0, (bits & 2) != 0, (bits & 4) != 0,
+  return {(bits & 1) != 0, (bits & 2) != 0,  (bits & 4) != 0,
           (bits & 8) != 0, (bits & 16) != 0, (bits & 32) != 0};
 }
 

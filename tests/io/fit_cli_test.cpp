@@ -53,7 +53,8 @@ class FitCli : public ::testing::Test {
   }
   int run(const std::string& args, std::string* out = nullptr, std::string* err = nullptr) {
     const fs::path o = dir_ / "stdout.txt", e = dir_ / "stderr.txt";
-    const int status = std::system((q(kCli) + " " + args + " > " + q(o.string()) + " 2> " + q(e.string())).c_str());
+    const int status = std::system(
+        (q(kCli) + " " + args + " > " + q(o.string()) + " 2> " + q(e.string())).c_str());
     if (out) *out = slurp(o);
     if (err) *err = slurp(e);
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -70,11 +71,12 @@ class FitCli : public ::testing::Test {
       text.replace(at, from.size(), to);
     };
     replace("model: ../../models/qdrone2.yaml", "model: " + model.string());
-    replace("controller: ../controllers/se3.yaml", "controller: " + kSource + "/config/controllers/se3.yaml");
+    replace("controller: ../controllers/se3.yaml",
+            "controller: " + kSource + "/config/controllers/se3.yaml");
     std::ofstream(exp) << text;
     std::string err;
-    EXPECT_EQ(run("run " + q(exp.string()) + " --out " + q((dir_ / "run").string()) + " --quiet --duration " +
-                      std::to_string(duration_s),
+    EXPECT_EQ(run("run " + q(exp.string()) + " --out " + q((dir_ / "run").string()) +
+                      " --quiet --duration " + std::to_string(duration_s),
                   nullptr, &err),
               0)
         << err;
@@ -86,24 +88,30 @@ class FitCli : public ::testing::Test {
 TEST_F(FitCli, RecoversAChangedVehicleFromItsLogAndWritesTheFittedModel) {
   const VehicleSpec nominal = load_vehicle_spec(kSource + "/models/qdrone2.yaml");
   VehicleSpec truth = nominal;
-  set_parameter_value(truth, ModelParameter::kThrustK1, 1.2 * parameter_value(nominal, ModelParameter::kThrustK1));
-  set_parameter_value(truth, ModelParameter::kInertiaZZ, 0.8 * parameter_value(nominal, ModelParameter::kInertiaZZ));
-  set_parameter_value(truth, ModelParameter::kTauRise, 1.2 * parameter_value(nominal, ModelParameter::kTauRise));
+  set_parameter_value(truth, ModelParameter::kThrustK1,
+                      1.2 * parameter_value(nominal, ModelParameter::kThrustK1));
+  set_parameter_value(truth, ModelParameter::kInertiaZZ,
+                      0.8 * parameter_value(nominal, ModelParameter::kInertiaZZ));
+  set_parameter_value(truth, ModelParameter::kTauRise,
+                      1.2 * parameter_value(nominal, ModelParameter::kTauRise));
   const std::string log = fly(truth, 10.0);
   const fs::path fitted = dir_ / "fitted.yaml", report = dir_ / "fit.json";
   std::string out, err;
   ASSERT_EQ(run("fit --model " + q(kSource + "/models/qdrone2.yaml") + " --log " + q(log) +
-                    " --params thrust_k1,inertia_zz,tau_rise --out " + q(fitted.string()) + " --report " +
-                    q(report.string()),
+                    " --params thrust_k1,inertia_zz,tau_rise --out " + q(fitted.string()) +
+                    " --report " + q(report.string()),
                 &out, &err),
             0)
       << out << err;
   EXPECT_NE(out.find("thrust_k1"), std::string::npos) << out;
   EXPECT_NE(out.find("holdout"), std::string::npos) << out;
   // The flight's switches, wind and gravity come from the run's sidecar.
-  EXPECT_NE(out.find("flight settings from " + (dir_ / "run" / "log.json").string()), std::string::npos) << out;
+  EXPECT_NE(out.find("flight settings from " + (dir_ / "run" / "log.json").string()),
+            std::string::npos)
+      << out;
   const VehicleSpec f = load_vehicle_spec(fitted.string());
-  for (const ModelParameter p : {ModelParameter::kThrustK1, ModelParameter::kInertiaZZ, ModelParameter::kTauRise}) {
+  for (const ModelParameter p :
+       {ModelParameter::kThrustK1, ModelParameter::kInertiaZZ, ModelParameter::kTauRise}) {
     EXPECT_NEAR(parameter_value(f, p) / parameter_value(truth, p), 1.0, 0.01) << parameter_name(p);
   }
   // Untouched parameters stay as they were in the starting model.
@@ -116,17 +124,20 @@ TEST_F(FitCli, RecoversAChangedVehicleFromItsLogAndWritesTheFittedModel) {
 TEST_F(FitCli, FitsTheMassOfTheRealCrazyPadFlight) {
   const std::string data = kSource + "/tests/data/real/";
   std::string err;
-  ASSERT_EQ(run("import crazypad " + q(data + "CrazyPAD/data/motor_data/normal_flight/E8_log00.fixedFrequency.csv") +
-                    " --stand " + q(data + "crazyflie-system-id/data/bitcraze2021/cf2.1-stock-prop.csv") +
-                    " --out " + q(dir_.string()),
-                nullptr, &err),
-            0)
+  ASSERT_EQ(
+      run("import crazypad " +
+              q(data + "CrazyPAD/data/motor_data/normal_flight/E8_log00.fixedFrequency.csv") +
+              " --stand " + q(data + "crazyflie-system-id/data/bitcraze2021/cf2.1-stock-prop.csv") +
+              " --out " + q(dir_.string()),
+          nullptr, &err),
+      0)
       << err;
   const fs::path fitted = dir_ / "cf.yaml", report = dir_ / "fit.json";
   std::string out;
   ASSERT_EQ(run("fit --model " + q(kSource + "/models/crazyflie21.yaml") + " --log " +
-                    q((dir_ / "E8_log00.csv").string()) + " --params mass --method equation --holdout 0.3" +
-                    " --min-height 0.05 --out " + q(fitted.string()) + " --report " + q(report.string()),
+                    q((dir_ / "E8_log00.csv").string()) +
+                    " --params mass --method equation --holdout 0.3" + " --min-height 0.05 --out " +
+                    q(fitted.string()) + " --report " + q(report.string()),
                 &out, &err),
             0)
       << out << err;

@@ -31,11 +31,10 @@
 // (e.g. mass with thrust) cannot be fitted together: the fit then warns of a correlation near 1.
 // Fix the ones you know (thrust from a stand, mass from a scale) and fit the rest.
 
+#include <Eigen/Core>
 #include <limits>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "dronetwin/core/types.hpp"
 #include "dronetwin/dynamics/environment.hpp"
@@ -70,8 +69,8 @@ struct FlightData {
 
 /// Extracts a FlightData from a log. Needs t, the state (meas_x..meas_wz when present and
 /// `prefer_measured`, else x..wz; the rates may be missing) and omega_0..omega_{N-1};
-/// omega_ref_*, in_contact and acc_x..acc_z are used when present. InvalidArgument naming the log and the missing column, or a row whose time does
-/// not increase or whose values are not finite.
+/// omega_ref_*, in_contact and acc_x..acc_z are used when present. InvalidArgument naming the log
+/// and the missing column, or a row whose time does not increase or whose values are not finite.
 FlightData flight_data_from_log(const LogTable& log, int num_rotors, bool prefer_measured = true);
 
 enum class FitMethod { kEquationError, kOutputError, kBoth };
@@ -112,11 +111,11 @@ struct FittedParameter {
 /// RMS of the residual channels on a set of intervals (NaN for a channel that was not used).
 struct ResidualStats {
   std::size_t intervals = 0;
-  double linear_acceleration_m_s2 = 0.0;   ///< equation error, per axis
+  double linear_acceleration_m_s2 = 0.0;  ///< equation error, per axis
   double angular_acceleration_rad_s2 = 0.0;
-  double position_m = 0.0;                 ///< output error over the windows
+  double position_m = 0.0;  ///< output error over the windows
   double attitude_rad = 0.0;
-  double motor_speed_rad_s = 0.0;          ///< motor-lag residual
+  double motor_speed_rad_s = 0.0;  ///< motor-lag residual
 };
 
 struct FitResult {

@@ -103,8 +103,8 @@ StateVectorT<T> ParametricModel::derivative(const T* theta, const StateVectorT<S
     const Rotor& r = rotors_[static_cast<std::size_t>(i)];
     const double w = speeds_rad_s[i];
     // Eq. 2.22: T = 'K1 w^2 + 'K2 w + 'K3
-    const T thrust = (th(P::kThrustK1) * (r.k1 * w) + th(P::kThrustK2) * r.k2) * w +
-                     th(P::kThrustK3) * r.k3;
+    const T thrust =
+        (th(P::kThrustK1) * (r.k1 * w) + th(P::kThrustK2) * r.k2) * w + th(P::kThrustK3) * r.k3;
     T along_axis = thrust;
     if (switches_.ground_effect) {  // appendix C.2: C_G T / h^2, h floored
       const S hub = p_z + R.row(2).dot(r.position_m.cast<S>());
@@ -128,7 +128,7 @@ StateVectorT<T> ParametricModel::derivative(const T* theta, const StateVectorT<S
     if (switches_.gyroscopic) rotor_momentum_B += (r.spin * r.inertia_kgm2 * w) * r.axis;
   }
   if (switches_.gyroscopic) M -= w_B.cross(rotor_momentum_B.cast<S>());  // Eq. 2.35, 2.37
-  if (switches_.body_drag) {                                               // Eq. 2.32, body frame
+  if (switches_.body_drag) {                                             // Eq. 2.32, body frame
     const Vector3<S> off = body_drag_off_diagonal_.cast<S>() * v_air_B;
     F[0] -= th(P::kBodyDragX) * (body_drag_diag_unit_[0] * v_air_B[0]) + off[0];
     F[1] -= th(P::kBodyDragY) * (body_drag_diag_unit_[1] * v_air_B[1]) + off[1];
