@@ -428,7 +428,16 @@ SolveOutcome solve(const Setup& s, std::vector<double>& block, const std::vector
     }
   }
 
+  // Ceres refuses (and logs an error to stderr) when the reciprocal condition number of J^T J is
+  // below its threshold; test that first on our J^T J, so a rank-deficient fit is reported in
+  // the result only.
   ceres::Covariance::Options co;
+  const Eigen::VectorXd eig =
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(outcome.information, Eigen::EigenvaluesOnly)
+          .eigenvalues();
+  if (!(eig.minCoeff() > 10.0 * co.min_reciprocal_condition_number * eig.maxCoeff())) {
+    return outcome;
+  }
   co.algorithm_type = ceres::DENSE_SVD;
   co.null_space_rank = 0;  // rank-deficient: fail (reported), rather than a pseudo-inverse
   co.num_threads = o.num_threads;
