@@ -3,9 +3,12 @@
 // an expected InvalidArgument, and the rows of a malformed-file corpus.
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cctype>
 #include <exception>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <ostream>
 #include <string>
@@ -38,6 +41,38 @@ inline StateVector random_state(Random& rng, double z_min = 0.05, double z_max =
   for (int i = 10; i < 13; ++i) x[i] = 4 * rng.uniform() - 2;
   return x;
 }
+
+/// A scratch directory for the running test, unique per process and test name, created empty
+/// and removed (with everything in it) at the end of its scope.
+class TempDir {
+ public:
+  explicit TempDir(const std::string& tag = "") {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ =
+        std::filesystem::temp_directory_path() /
+        ("dronetwin_" + std::to_string(::getpid()) + "_" + std::string(info->test_suite_name()) +
+         "_" + info->name() + (tag.empty() ? "" : "_" + tag));
+    std::filesystem::remove_all(path_);
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  /// Writes `text` to `name` inside the directory (subfolders created); returns the full path.
+  std::string write(const std::string& name, const std::string& text) const {
+    const std::filesystem::path p = path_ / name;
+    std::filesystem::create_directories(p.parent_path());
+    std::ofstream(p) << text;
+    return p.string();
+  }
+
+ private:
+  std::filesystem::path path_;
+};
 
 /// The message of the InvalidArgument thrown by `f`; a test failure (and "") if `f` throws
 /// something else or nothing.

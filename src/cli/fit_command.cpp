@@ -4,7 +4,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <sstream>
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/identification/fit.hpp"
@@ -19,27 +18,19 @@ DisturbanceSwitches parse_switches(const std::string& text) {
   if (text == "all") return DisturbanceSwitches{};
   DisturbanceSwitches s = DisturbanceSwitches::none();
   if (text == "none") return s;
+  std::string valid;
+  for (std::string_view n : kDisturbanceSwitchNames)
+    valid += (valid.empty() ? "" : ", ") + std::string(n);
   std::size_t start = 0;
   while (start <= text.size()) {
     std::size_t end = text.find(',', start);
     if (end == std::string::npos) end = text.size();
-    const std::string item = text.substr(start, end - start);
-    if (item == "rotor_drag")
-      s.rotor_drag = true;
-    else if (item == "rolling_moment")
-      s.rolling_moment = true;
-    else if (item == "drag_moment")
-      s.drag_moment = true;
-    else if (item == "ground_effect")
-      s.ground_effect = true;
-    else if (item == "gyroscopic")
-      s.gyroscopic = true;
-    else if (item == "body_drag")
-      s.body_drag = true;
-    else
-      throw InvalidArgument("--disturbances: unknown term '" + item +
-                            "' (valid: all, none, or a list of rotor_drag, rolling_moment, "
-                            "drag_moment, ground_effect, gyroscopic, body_drag)");
+    const std::string_view item = std::string_view(text).substr(start, end - start);
+    std::size_t i = 0;
+    while (i < kDisturbanceSwitchNames.size() && kDisturbanceSwitchNames[i] != item) ++i;
+    require(i < kDisturbanceSwitchNames.size(), "--disturbances: unknown term '", item,
+            "' (valid: all, none, or a comma-separated list of ", valid, ")");
+    s.*kDisturbanceSwitchMembers[i] = true;
     start = end + 1;
   }
   return s;
@@ -92,13 +83,8 @@ int run_fit_command(const FitCommand& c) {
   o.max_windows = c.max_windows;
   const std::string sidecar = sidecar_path(c.log);
   std::string settings_from = "defaults (all terms, no wind)";
-  const auto is_run_log = [](const std::string& path) {  // importers write their own format
-    std::ifstream in(path);
-    std::stringstream text;
-    text << in.rdbuf();
-    return text.str().find(std::string(kRunLogFormat)) != std::string::npos;
-  };
-  if (std::filesystem::exists(sidecar) && is_run_log(sidecar)) {
+  // Importers write a sidecar of their own format, without the flight settings.
+  if (std::filesystem::exists(sidecar) && log_sidecar_format(sidecar) == kRunLogFormat) {
     const LogMetadata meta = read_log_metadata(sidecar);
     require(meta.num_rotors == model.num_rotors(), sidecar, ": the log has ", meta.num_rotors,
             " rotors, the model ", c.model, " has ", model.num_rotors());

@@ -106,11 +106,6 @@ struct Weights {
          motor = 1.0;
 };
 
-template <class T>
-StateVectorT<T> cast_state(const StateVector& x) {
-  return x.cast<T>();
-}
-
 // Equation error on a chunk of intervals: 6 residuals each.
 struct EquationError {
   const ParametricModel* pm;
@@ -187,16 +182,17 @@ struct OutputError {
   const FlightData* d;
   const ThetaMap* map;
   int k0 = 0, len = 0;
-  double max_substep_s = 1.0e-3;
   Weights w;
+  // Longer log intervals are integrated in substeps of at most this (the thesis physics step).
+  static constexpr double kMaxSubstep_s = 1.0e-3;
   template <class T>
   bool operator()(T const* const* params, T* res) const {
     const auto th = map->full<T>(params[0]);
-    StateVectorT<T> x = cast_state<T>(d->state[static_cast<std::size_t>(k0)]);
+    StateVectorT<T> x = d->state[static_cast<std::size_t>(k0)].template cast<T>();
     for (int j = 0; j < len; ++j) {
       const auto k = static_cast<std::size_t>(k0 + j);
       const double dt_total = d->t_s[k + 1] - d->t_s[k];
-      const int sub = std::max(1, static_cast<int>(std::ceil(dt_total / max_substep_s - 1e-9)));
+      const int sub = std::max(1, static_cast<int>(std::ceil(dt_total / kMaxSubstep_s - 1e-9)));
       const T h(dt_total / sub);
       const RotorVector& speeds = d->rotor_speed_rad_s[k];
       for (int s = 0; s < sub; ++s) {  // RK4 with the rotor speeds held, as the simulator steps
@@ -295,7 +291,7 @@ Channels evaluate(const Setup& s, const std::vector<double>& block,
   }
   if (out) {
     for (int k0 : windows) {
-      OutputError f{s.pm, s.d, &s.map, k0, s.window_len, 1.0e-3, Weights{}};
+      OutputError f{s.pm, s.d, &s.map, k0, s.window_len, Weights{}};
       std::vector<double> r(12 * static_cast<std::size_t>(s.window_len));
       f(p, r.data());
       for (int j = 0; j < s.window_len; ++j) {
@@ -368,8 +364,7 @@ void add_costs(ceres::Problem& problem, double* block, const Setup& s, const std
   if (out) {
     for (int k0 : windows) {
       problem.AddResidualBlock(
-          make_cost(new OutputError{s.pm, s.d, &s.map, k0, s.window_len, 1.0e-3, w}, nf,
-                    12 * s.window_len),
+          make_cost(new OutputError{s.pm, s.d, &s.map, k0, s.window_len, w}, nf, 12 * s.window_len),
           nullptr, block);
     }
   }

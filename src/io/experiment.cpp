@@ -45,8 +45,7 @@ const Names kTopLevelKeys = {"name",         "description",   "model",        "s
 const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
 const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
 const Names kBlockKeys = {"a", "b"};
-const Names kDisturbanceKeys = {"rotor_drag",    "rolling_moment", "drag_moment",
-                                "ground_effect", "gyroscopic",     "body_drag"};
+const Names kDisturbanceKeys(kDisturbanceSwitchNames.begin(), kDisturbanceSwitchNames.end());
 const Names kGroundKeys = {"enabled", "crash_speed_m_s", "crash_tilt_rad"};
 const Names kInitialStateKeys = {"position_m",         "velocity_m_s",           "quaternion_wxyz",
                                  "euler_rad",          "angular_velocity_rad_s", "rotor_speeds_rad_s",
@@ -132,13 +131,9 @@ DisturbanceSwitches read_disturbances(const Reader& rd, const YAML::Node& node,
   }
   const Map m = rd.map(node, path, kDisturbanceKeys, "'none', 'all' or a map of switches");
   DisturbanceSwitches s;
-  const std::array<bool DisturbanceSwitches::*, 6> members = {
-      &DisturbanceSwitches::rotor_drag,  &DisturbanceSwitches::rolling_moment,
-      &DisturbanceSwitches::drag_moment, &DisturbanceSwitches::ground_effect,
-      &DisturbanceSwitches::gyroscopic,  &DisturbanceSwitches::body_drag};
-  for (std::size_t i = 0; i < members.size(); ++i) {
-    const std::string_view key = kDisturbanceKeys[i];
-    if (m.has(key)) s.*members[i] = rd.boolean(m.get(key), m.path(key));
+  for (std::size_t i = 0; i < kDisturbanceSwitchMembers.size(); ++i) {
+    const std::string_view key = kDisturbanceSwitchNames[i];
+    if (m.has(key)) s.*kDisturbanceSwitchMembers[i] = rd.boolean(m.get(key), m.path(key));
   }
   return s;
 }

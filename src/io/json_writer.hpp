@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -48,6 +49,13 @@ class JsonObject {
   JsonObject& integer(std::string_view key, long long v) { return raw(key, std::to_string(v)); }
   JsonObject& boolean(std::string_view key, bool v) { return raw(key, v ? "true" : "false"); }
   JsonObject& null(std::string_view key) { return raw(key, "null"); }
+  /// The value, or null when there is none.
+  JsonObject& str_or_null(std::string_view key, const std::optional<std::string>& v) {
+    return v ? str(key, *v) : null(key);
+  }
+  JsonObject& num_or_null(std::string_view key, const std::optional<double>& v) {
+    return v ? num(key, *v) : null(key);
+  }
   /// The object, "{" to "}" (no trailing newline).
   std::string done() const { return "{\n" + text_ + "\n" + pad_ + "}"; }
 

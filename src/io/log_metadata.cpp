@@ -48,17 +48,9 @@ constexpr std::array<std::string_view, 24> kKeys = {"format",
                                                     "gravity_m_s2",
                                                     "num_rotors",
                                                     "columns"};
-constexpr std::array<std::string_view, 6> kDisturbanceKeys = {
-    "rotor_drag", "rolling_moment", "drag_moment", "ground_effect", "gyroscopic", "body_drag"};
 constexpr std::array<std::string_view, 3> kColumnKeys = {"name", "unit", "meaning"};
 constexpr std::array<std::string_view, 2> kIntegrators = {integrator_name(Integrator::kRk4),
                                                           integrator_name(Integrator::kEuler)};
-
-// The six switches in kDisturbanceKeys order.
-std::array<bool*, 6> switches(DisturbanceSwitches& d) {
-  return {&d.rotor_drag,    &d.rolling_moment, &d.drag_moment,
-          &d.ground_effect, &d.gyroscopic,     &d.body_drag};
-}
 
 /// A JSON string (quoted in the file: a bare 5 or true is not one).
 std::string text(const Reader& rd, const YAML::Node& node, const std::string& path,
@@ -126,10 +118,8 @@ std::string sidecar_path(const std::string& csv_path) {
 
 std::string log_metadata_to_json(const LogMetadata& m) {
   JsonObject disturbances(2);
-  DisturbanceSwitches d = m.disturbances;
-  const auto on = switches(d);
-  for (std::size_t i = 0; i < kDisturbanceKeys.size(); ++i)
-    disturbances.boolean(kDisturbanceKeys[i], *on[i]);
+  for (std::size_t i = 0; i < kDisturbanceSwitchNames.size(); ++i)
+    disturbances.boolean(kDisturbanceSwitchNames[i], m.disturbances.*kDisturbanceSwitchMembers[i]);
 
   JsonObject j(0);
   j.str("format", m.format)
@@ -139,26 +129,17 @@ std::string log_metadata_to_json(const LogMetadata& m) {
       .str("experiment_path", m.experiment_path)
       .str("input_type", m.input_type)
       .str("model", m.model)
-      .str("model_path", m.model_path);
-  if (m.model_hash)
-    j.str("model_hash", *m.model_hash);
-  else
-    j.null("model_hash");
-  j.raw("seed", std::to_string(m.seed))
+      .str("model_path", m.model_path)
+      .str_or_null("model_hash", m.model_hash)
+      .raw("seed", std::to_string(m.seed))
       .num("dt_s", m.dt_s)
       .str("integrator", integrator_name(m.integrator))
       .boolean("motor_dynamics", m.motor_dynamics)
       .integer("log_every_n_steps", m.log_every_n_steps)
-      .num("log_rate_hz", m.log_rate_hz);
-  if (m.controller_path)
-    j.str("controller_path", *m.controller_path);
-  else
-    j.null("controller_path");
-  if (m.control_rate_hz)
-    j.num("control_rate_hz", *m.control_rate_hz);
-  else
-    j.null("control_rate_hz");
-  j.boolean("noise", m.noise)
+      .num("log_rate_hz", m.log_rate_hz)
+      .str_or_null("controller_path", m.controller_path)
+      .num_or_null("control_rate_hz", m.control_rate_hz)
+      .boolean("noise", m.noise)
       .raw("disturbances", disturbances.done())
       .boolean("ground", m.ground)
       .raw("wind_m_s", json_array(m.wind_m_s))
@@ -174,19 +155,31 @@ void write_log_metadata(const LogMetadata& metadata, const std::string& json_pat
 
 // ---- reader -----------------------------------------------------------------------------------
 
-LogMetadata parse_log_metadata(const std::string& json_text, const std::string& source_name) {
-  const Reader rd(source_name);
-  const std::string expected = "a JSON object with the fields " + io_detail::name_list(kKeys);
-  // Not Reader::parse: its messages speak of YAML, and a sidecar is JSON.
-  YAML::Node root;
+namespace {
+// Not Reader::parse: its messages speak of YAML, and a sidecar is JSON.
+YAML::Node load_json(const std::string& json_text, const std::string& source_name) {
   try {
-    root = YAML::Load(json_text);
+    return YAML::Load(json_text);
   } catch (const YAML::ParserException& e) {
     throw InvalidArgument(source_name + ": line " + std::to_string(e.mark.line + 1) + ", column " +
                           std::to_string(e.mark.column + 1) + ": JSON syntax error: " + e.msg);
   } catch (const YAML::Exception& e) {
     throw InvalidArgument(source_name + ": cannot parse JSON: " + e.what());
   }
+}
+}  // namespace
+
+std::string log_sidecar_format(const std::string& json_path) {
+  const YAML::Node root =
+      load_json(io_detail::read_text_file(json_path, "log metadata"), json_path);
+  const YAML::Node format = root.IsMap() ? root["format"] : YAML::Node();
+  return format && format.IsScalar() ? format.Scalar() : std::string();
+}
+
+LogMetadata parse_log_metadata(const std::string& json_text, const std::string& source_name) {
+  const Reader rd(source_name);
+  const std::string expected = "a JSON object with the fields " + io_detail::name_list(kKeys);
+  const YAML::Node root = load_json(json_text, source_name);
   if (root.IsNull()) rd.fail("", "empty document; expected " + expected);
   if (!root.IsMap())
     rd.fail(root, "", "expected " + expected + ", got " + io_detail::describe(root));
@@ -256,11 +249,13 @@ LogMetadata parse_log_metadata(const std::string& json_text, const std::string& 
   m.noise = rd.boolean(field("noise"), path("noise"));
   {
     const std::string p = path("disturbances");
-    const std::string what = "an object with the fields " + io_detail::name_list(kDisturbanceKeys);
-    const Map dist = rd.map(field("disturbances"), p, kDisturbanceKeys, what);
-    const auto on = switches(m.disturbances);
-    for (std::size_t i = 0; i < kDisturbanceKeys.size(); ++i)
-      *on[i] = rd.boolean(dist.required(kDisturbanceKeys[i]), dist.path(kDisturbanceKeys[i]));
+    const std::string what =
+        "an object with the fields " + io_detail::name_list(kDisturbanceSwitchNames);
+    const Map dist = rd.map(field("disturbances"), p, kDisturbanceSwitchNames, what);
+    for (std::size_t i = 0; i < kDisturbanceSwitchNames.size(); ++i) {
+      const std::string_view key = kDisturbanceSwitchNames[i];
+      m.disturbances.*kDisturbanceSwitchMembers[i] = rd.boolean(dist.required(key), dist.path(key));
+    }
   }
   m.ground = rd.boolean(field("ground"), path("ground"));
   m.wind_m_s = rd.fixed<3>(field("wind_m_s"), path("wind_m_s"), "x, y, z in m/s");

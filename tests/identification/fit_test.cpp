@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include <filesystem>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -41,6 +41,14 @@ struct Flight {
 };
 
 // Flies `experiment` with the QDrone2 changed by `changes` (on top of `base`) and reads it back.
+// Runs `e` with `model` through the experiment runner and reads its log back as the fit sees it.
+FlightData fly_experiment(const Experiment& e, std::shared_ptr<const VehicleModel> model) {
+  const test::TempDir dir("flight");
+  const RunSummary s = run_experiment(e, std::move(model), dir.path().string());
+  EXPECT_TRUE(s.ok()) << s.failure_message;
+  return flight_data_from_log(read_csv_log((dir.path() / "log.csv").string()), 4);
+}
+
 Flight fly(const std::string& experiment, const VehicleSpec& base,
            const std::vector<Change>& changes, double duration_s) {
   Flight f;
@@ -49,15 +57,7 @@ Flight fly(const std::string& experiment, const VehicleSpec& base,
     set_parameter_value(f.truth, c.parameter, c.factor * parameter_value(base, c.parameter));
   Experiment e = load_experiment(test::source_path("config/experiments/" + experiment));
   e.duration_s = duration_s;
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("dronetwin_fit_" + experiment + "_" +
-                    std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-                    ::testing::UnitTest::GetInstance()->current_test_info()->name());
-  const RunSummary s =
-      run_experiment(e, std::make_shared<const VehicleModel>(f.truth), dir.string());
-  EXPECT_TRUE(s.ok()) << s.failure_message;
-  f.data = flight_data_from_log(read_csv_log((dir / "log.csv").string()), 4);
-  std::filesystem::remove_all(dir);
+  f.data = fly_experiment(e, std::make_shared<const VehicleModel>(f.truth));
   return f;
 }
 
@@ -185,10 +185,7 @@ TEST(FitDiagnostics, MassWithEveryForceAndInertiaIsFlagged) {
       load_experiment(test::source_path("config/experiments/identification_flight.yaml"));
   e.duration_s = 10.0;
   e.disturbances.gyroscopic = e.disturbances.rolling_moment = false;
-  const auto dir = std::filesystem::temp_directory_path() / "dronetwin_fit_mass_scale";
-  ASSERT_TRUE(run_experiment(e, model, dir.string()).ok());
-  const FlightData data = flight_data_from_log(read_csv_log((dir / "log.csv").string()), 4);
-  std::filesystem::remove_all(dir);
+  const FlightData data = fly_experiment(e, model);
   FitOptions o;
   o.parameters =
       parse_parameter_list("mass,thrust,body_drag,rotor_drag,inertia,yaw_moment_per_thrust");
@@ -276,6 +273,76 @@ TEST(FitData, MissingColumnsAndBadOptionsAreNamed) {
   EXPECT_NE(test::error_of([] {
               (void)parse_parameter_list("thrust,mas");
             }).find("unknown parameter 'mas'"),
+            std::string::npos);
+}
+
+TEST(FitData, BadRowsAreNamedWithTheRow) {
+  LogTable t;
+  t.source = "flight.csv";
+  t.columns = {"t",  "x",  "y",  "z",  "vx", "vy", "vz",     "qw",
+               "qx", "qy", "qz", "wx", "wy", "wz", "omega_0"};
+  const std::size_t nc = t.columns.size();
+  t.values.assign(3 * nc, 0.0);
+  for (std::size_t r = 0; r < 3; ++r) {
+    t.values[r * nc] = 0.001 * static_cast<double>(r);
+    t.values[r * nc + 7] = 1.0;  // qw
+  }
+  EXPECT_NO_THROW((void)flight_data_from_log(t, 1));
+  LogTable u = t;
+  u.values[2 * nc] = 0.001;  // row 3 at the time of row 2
+  EXPECT_NE(test::error_of([&] {
+              (void)flight_data_from_log(u, 1);
+            }).find("flight.csv: row 3: t = 0.001 does not increase"),
+            std::string::npos);
+  u = t;
+  u.values[nc + 4] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(test::error_of([&] {
+              (void)flight_data_from_log(u, 1);
+            }).find("flight.csv: row 2: column vx is not finite"),
+            std::string::npos);
+  u = t;
+  u.values[nc + 7] = 3.0;
+  EXPECT_NE(
+      test::error_of([&] { (void)flight_data_from_log(u, 1); }).find("row 2: quaternion norm 3"),
+      std::string::npos);
+  EXPECT_NE(test::error_of([&] {
+              (void)flight_data_from_log(t, 9);
+            }).find("num_rotors must be in [1, 8], got 9"),
+            std::string::npos);
+}
+
+TEST(FitData, UnusableFlightsAndOptionsAreNamed) {
+  const auto model = test::load_model("qdrone2");
+  const Flight f = fly("identification_flight.yaml", model->spec(), {}, 2.0);
+  const auto error = [&](const FlightData& d, const FitOptions& o, const VehicleModel& m) {
+    return test::error_of([&] { (void)fit_model(m, d, o); });
+  };
+  FitOptions o;
+  o.parameters = {P::kMass};
+  o.holdout_fraction = 0.95;
+  EXPECT_NE(error(f.data, o, *model).find("holdout_fraction must be in [0, 0.9), got 0.9"),
+            std::string::npos);
+  o.holdout_fraction = 0.2;
+  o.window_s = 5.0;  // longer than the 1.6 s fitted
+  EXPECT_NE(error(f.data, o, *model).find("for an output-error window of 5 s"), std::string::npos);
+  o.window_s = 0.05;
+  EXPECT_NE(
+      error(f.data, o, *test::load_model("hexarotor")).find("the log has 4 rotors, the model"),
+      std::string::npos);
+  FlightData few = f.data;  // 30 rows: 23 intervals to fit, 4 x 17 + 10 needed
+  few.t_s.resize(30);
+  few.state.resize(30);
+  few.rotor_speed_rad_s.resize(30);
+  few.rotor_reference_rad_s.resize(30);
+  few.in_contact.resize(30);
+  o.parameters = parse_parameter_list(
+      "mass,inertia,thrust,yaw_moment_per_thrust,drag_moment,"
+      "rotor_drag,rolling_moment,body_drag,ground_effect,motor");
+  EXPECT_NE(error(few, o, *model).find("usable intervals to fit"), std::string::npos);
+  FlightData no_rates = f.data;
+  no_rates.has_body_rates = false;
+  o.parameters = {P::kInertiaZZ};
+  EXPECT_NE(error(no_rates, o, *model).find("inertia_zz needs the body rates (columns wx, wy, wz"),
             std::string::npos);
 }
 

@@ -13,6 +13,7 @@
 
 #include "dronetwin/identification/model_parameters.hpp"
 #include "dronetwin/io/model_loader.hpp"
+#include "test_support.hpp"
 
 namespace dronetwin {
 namespace {
@@ -41,15 +42,6 @@ class FitCli : public ::testing::Test {
  protected:
   void SetUp() override {
     if (kCli.empty()) GTEST_SKIP() << "the dronetwin CLI was not built (CLI11 not found)";
-    dir_ = fs::temp_directory_path() /
-           ("dronetwin_fit_cli_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
   }
   int run(const std::string& args, std::string* out = nullptr, std::string* err = nullptr) {
     const fs::path o = dir_ / "stdout.txt", e = dir_ / "stderr.txt";
@@ -82,7 +74,8 @@ class FitCli : public ::testing::Test {
         << err;
     return (dir_ / "run" / "log.csv").string();
   }
-  fs::path dir_;
+  test::TempDir tmp_;
+  const fs::path dir_ = tmp_.path();
 };
 
 TEST_F(FitCli, RecoversAChangedVehicleFromItsLogAndWritesTheFittedModel) {
@@ -166,7 +159,53 @@ TEST_F(FitCli, BadInputIsNamed) {
                 &out, &err),
             2);
   EXPECT_NE(err.find("--method"), std::string::npos) << err;
+  EXPECT_EQ(run("fit --model " + model + " --log " + q((dir_ / "short.csv").string()) +
+                    " --params mass --disturbances rotor_drag,wind --out " +
+                    q((dir_ / "f.yaml").string()),
+                &out, &err),
+            2);
+  EXPECT_NE(err.find("--disturbances: unknown term 'wind' (valid: all, none, or a comma-separated "
+                     "list of rotor_drag, rolling_moment"),
+            std::string::npos)
+      << err;
   EXPECT_FALSE(fs::exists(dir_ / "f.yaml"));
+}
+
+TEST_F(FitCli, ASidecarForAnotherVehicleIsNamed) {
+  const std::string log = fly(load_vehicle_spec(kSource + "/models/qdrone2.yaml"), 0.5);
+  std::string out, err;
+  EXPECT_EQ(run("fit --model " + q(kSource + "/models/hexarotor.yaml") + " --log " + q(log) +
+                    " --params mass --out " + q((dir_ / "f.yaml").string()),
+                &out, &err),
+            2);
+  EXPECT_NE(err.find("log.json: the log has 4 rotors, the model"), std::string::npos) << err;
+}
+
+TEST_F(FitCli, EstimatesThatMakeNoValidModelAreReportedButNotWritten) {
+  // The hovering CrazyPAD flight cannot see vertical drag; its estimate comes out below 0, which
+  // no model file may hold (body drag must be dissipative).
+  const std::string data = kSource + "/tests/data/real/";
+  ASSERT_EQ(
+      run("import crazypad " +
+          q(data + "CrazyPAD/data/motor_data/normal_flight/E8_log00.fixedFrequency.csv") +
+          " --stand " + q(data + "crazyflie-system-id/data/bitcraze2021/cf2.1-stock-prop.csv") +
+          " --out " + q(dir_.string())),
+      0);
+  const fs::path fitted = dir_ / "cf.yaml", report = dir_ / "fit.json";
+  std::string out, err;
+  EXPECT_EQ(run("fit --model " + q(kSource + "/models/crazyflie21.yaml") + " --log " +
+                    q((dir_ / "E8_log00.csv").string()) +
+                    " --params mass,body_drag_z --method equation --holdout 0.3 --min-height 0.05" +
+                    " --out " + q(fitted.string()) + " --report " + q(report.string()),
+                &out, &err),
+            1);
+  EXPECT_NE(err.find("the estimates do not make a valid model, so " + fitted.string() +
+                     " was not written"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find("body_drag_Ns_per_m"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(fitted));
+  EXPECT_TRUE(fs::exists(report));  // the report is still there to read
 }
 
 }  // namespace

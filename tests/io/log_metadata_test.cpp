@@ -80,17 +80,6 @@ TEST(Fnv1a64, MatchesTheSpecificationTestVectors) {
 
 class LogMetadataTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("dronetwin_log_metadata_test_" + std::to_string(::getpid()) + "_" + info->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
   Experiment experiment(const std::string& body) const {
     return parse_experiment("name: t\nmodel: " + kModel + "\n" + body, (dir_ / "t.yaml").string());
   }
@@ -111,7 +100,8 @@ input: {type: hover}
                           (dir_ / out).string());
   }
 
-  fs::path dir_;
+  test::TempDir tmp_;
+  const fs::path dir_ = tmp_.path();
 };
 
 TEST_F(LogMetadataTest, FileHashIsTheHashOfTheBytes) {
@@ -393,6 +383,20 @@ TEST_F(LogMetadataTest, UlogImportSidecarCarriesTheCoreFields) {
   // A run-log reader refuses it by its format, not by a list of unknown keys.
   const std::string e = error_of([&] { (void)read_log_metadata(stem + ".json"); });
   EXPECT_NE(e.find("format: expected \"dronetwin.run_log\""), std::string::npos) << e;
+  // log_sidecar_format tells the two kinds apart before choosing a reader.
+  EXPECT_EQ(log_sidecar_format(stem + ".json"), kImportedLogFormat);
+}
+
+TEST_F(LogMetadataTest, SidecarFormatOfARunLogAndOfBadFiles) {
+  ASSERT_TRUE(open_loop_run("run").ok());
+  EXPECT_EQ(log_sidecar_format((dir_ / "run" / "log.json").string()), kRunLogFormat);
+  write_all(dir_ / "noformat.json", "{\"seed\": 1}");
+  EXPECT_EQ(log_sidecar_format((dir_ / "noformat.json").string()), "");
+  write_all(dir_ / "broken.json", "{\"format\": [");
+  const std::string e =
+      error_of([&] { (void)log_sidecar_format((dir_ / "broken.json").string()); });
+  EXPECT_NE(e.find("broken.json: line 1"), std::string::npos) << e;
+  EXPECT_NE(e.find("JSON syntax error"), std::string::npos) << e;
 }
 
 }  // namespace

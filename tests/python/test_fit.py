@@ -51,3 +51,6 @@ def test_fit_errors_are_value_errors(tmp_path, qdrone2):
     with pytest.raises(ValueError, match="vx"):
         dt.read_flight(str(bad), 4)
     assert "drag_moment" in dt.parameter_names()
+    spec = dt.load_spec(source_path("models", "qdrone2.yaml"))
+    with pytest.raises(ValueError, match="'thrust' names a group of 3 parameters"):
+        dt.parameter_value(spec, "thrust")

@@ -47,6 +47,15 @@ struct DisturbanceSwitches {
   static constexpr DisturbanceSwitches none() { return {false, false, false, false, false, false}; }
 };
 
+/// The switches by name, in declaration order: the names experiment files, log sidecars and
+/// `dronetwin fit --disturbances` use (kDisturbanceSwitchMembers[i] is the one named [i]).
+inline constexpr std::array<std::string_view, 6> kDisturbanceSwitchNames = {
+    "rotor_drag", "rolling_moment", "drag_moment", "ground_effect", "gyroscopic", "body_drag"};
+inline constexpr std::array<bool DisturbanceSwitches::*, 6> kDisturbanceSwitchMembers = {
+    &DisturbanceSwitches::rotor_drag,  &DisturbanceSwitches::rolling_moment,
+    &DisturbanceSwitches::drag_moment, &DisturbanceSwitches::ground_effect,
+    &DisturbanceSwitches::gyroscopic,  &DisturbanceSwitches::body_drag};
+
 template <class T>
 struct Wrench {
   Vector3<T> force_B = Vector3<T>::Zero();

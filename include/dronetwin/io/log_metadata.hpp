@@ -117,6 +117,10 @@ void write_log_metadata(const LogMetadata& metadata, const std::string& json_pat
 /// Reads a run log's sidecar. InvalidArgument "<json_path>: <field>: <what>" for a malformed one.
 LogMetadata read_log_metadata(const std::string& json_path);
 
+/// The "format" field of a sidecar (kRunLogFormat, kImportedLogFormat, ...; "" when it has
+/// none), to choose a reader. InvalidArgument naming the file if it is not JSON.
+std::string log_sidecar_format(const std::string& json_path);
+
 /// Same, from JSON text; `source_name` stands for the file in messages.
 LogMetadata parse_log_metadata(const std::string& json_text, const std::string& source_name);
 
