@@ -18,12 +18,13 @@ using namespace dronetwin;
 void run(benchmark::State& state, const char* controller_file, const Reference& reference,
          double rate_hz, const Vec3& start) {
   const std::string root = DRONETWIN_SOURCE_DIR;
-  const auto model = std::make_shared<const VehicleModel>(
-      load_vehicle_model(root + "/models/qdrone2.yaml"));
+  const auto model =
+      std::make_shared<const VehicleModel>(load_vehicle_model(root + "/models/qdrone2.yaml"));
   SimConfig cfg;
   cfg.noise.enabled = true;
   Simulator sim(model, cfg);
-  auto controller = load_controller(root + "/config/controllers/" + controller_file, model, rate_hz);
+  auto controller =
+      load_controller(root + "/config/controllers/" + controller_file, model, rate_hz);
   const auto restart = [&] {
     sim.reset(Simulator::hover_state(start), model->hover_speeds_rad_s());
     controller->reset();
@@ -41,8 +42,8 @@ void run(benchmark::State& state, const char* controller_file, const Reference& 
     }
     benchmark::DoNotOptimize(loop->step());
   }
-  state.counters["steps/s"] = benchmark::Counter(static_cast<double>(state.iterations()),
-                                                 benchmark::Counter::kIsRate);
+  state.counters["steps/s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 
 void BM_ClosedLoopPid1kHz(benchmark::State& s) {

@@ -23,8 +23,8 @@ using namespace dronetwin;
 
 void run(benchmark::State& state, int horizon_steps) {
   const std::string root = DRONETWIN_SOURCE_DIR;
-  const auto model = std::make_shared<const VehicleModel>(
-      load_vehicle_model(root + "/models/qdrone2.yaml"));
+  const auto model =
+      std::make_shared<const VehicleModel>(load_vehicle_model(root + "/models/qdrone2.yaml"));
   SimConfig cfg;
   cfg.noise.enabled = true;
   Simulator sim(model, cfg);

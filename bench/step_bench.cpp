@@ -41,8 +41,8 @@ void run(benchmark::State& state, const char* name, Integrator integrator, bool 
     }
     benchmark::DoNotOptimize(sim.step());
   }
-  state.counters["steps/s"] = benchmark::Counter(static_cast<double>(state.iterations()),
-                                                 benchmark::Counter::kIsRate);
+  state.counters["steps/s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 
 void BM_StepQDrone2Rk4(benchmark::State& s) { run(s, "qdrone2", Integrator::kRk4, false); }

@@ -95,8 +95,8 @@ class PyController : public ControllerBase {
   }
   std::unique_ptr<ControllerBase> clone() const override {
     throw InvalidArgument(detail::concat("controller '", std::string(name()),
-                          "' is written in Python and cannot be copied by C++; use "
-                          "copy.deepcopy in Python"));
+                                         "' is written in Python and cannot be copied by C++; use "
+                                         "copy.deepcopy in Python"));
   }
   void reset() override { PYBIND11_OVERRIDE(void, ControllerBase, reset, ); }
   std::vector<std::string> diagnostic_names() const override {
@@ -104,7 +104,8 @@ class PyController : public ControllerBase {
   }
   void diagnostics(double* out) const override {
     py::gil_scoped_acquire gil;
-    if (py::function f = py::get_override(static_cast<const ControllerBase*>(this), "diagnostics")) {
+    if (py::function f =
+            py::get_override(static_cast<const ControllerBase*>(this), "diagnostics")) {
       const auto n = static_cast<int>(diagnostic_names().size());
       read_vector(f(), n, "diagnostics result", out);
     }
@@ -114,7 +115,8 @@ class PyController : public ControllerBase {
   GeneralizedForce do_calculate_u(const ControlInput& in) override {
     {
       py::gil_scoped_acquire gil;
-      if (py::function f = py::get_override(static_cast<const ControllerBase*>(this), "calculate_u")) {
+      if (py::function f =
+              py::get_override(static_cast<const ControllerBase*>(this), "calculate_u")) {
         const py::object r = f(in);
         return to_fixed<4>(r, "calculate_u result");
       }
@@ -124,8 +126,8 @@ class PyController : public ControllerBase {
   RotorVector do_calculate_actuator_cmd(const ControlInput& in) override {
     {
       py::gil_scoped_acquire gil;
-      if (py::function f =
-              py::get_override(static_cast<const ControllerBase*>(this), "calculate_actuator_cmd")) {
+      if (py::function f = py::get_override(static_cast<const ControllerBase*>(this),
+                                            "calculate_actuator_cmd")) {
         const py::object r = f(in);
         return to_rotor_vector(r, model().num_rotors(), "calculate_actuator_cmd result");
       }
@@ -142,15 +144,17 @@ class PyController : public ControllerBase {
 py::dict record(ClosedLoop& loop, double duration_s, int every) {
   const Simulator& sim = loop.simulator();
   if (!(duration_s >= 0.0) || !std::isfinite(duration_s))
-    throw py::value_error("record: duration_s must be finite and >= 0, got " + std::to_string(duration_s));
-  if (every < 1) throw py::value_error("record: every_n_steps must be >= 1, got " + std::to_string(every));
+    throw py::value_error("record: duration_s must be finite and >= 0, got " +
+                          std::to_string(duration_s));
+  if (every < 1)
+    throw py::value_error("record: every_n_steps must be >= 1, got " + std::to_string(every));
   const double dt = sim.config().dt_s;
   const auto steps = static_cast<std::int64_t>(std::ceil(duration_s / dt - 1e-9));
   const py::ssize_t rows = static_cast<py::ssize_t>(steps / every + 1);
   const py::ssize_t nr = sim.model().num_rotors();
-  py::array_t<double> t({rows}), x({rows, py::ssize_t{kStateSize}}), xm({rows, py::ssize_t{kStateSize}}),
-      w({rows, nr}), wref({rows, nr}), ref({rows, py::ssize_t{4}}), u({rows, py::ssize_t{4}}),
-      sat({rows});
+  py::array_t<double> t({rows}), x({rows, py::ssize_t{kStateSize}}),
+      xm({rows, py::ssize_t{kStateSize}}), w({rows, nr}), wref({rows, nr}),
+      ref({rows, py::ssize_t{4}}), u({rows, py::ssize_t{4}}), sat({rows});
   double *pt = t.mutable_data(), *px = x.mutable_data(), *pxm = xm.mutable_data(),
          *pw = w.mutable_data(), *pwr = wref.mutable_data(), *pref = ref.mutable_data(),
          *pu = u.mutable_data(), *psat = sat.mutable_data();
@@ -168,7 +172,8 @@ py::dict record(ClosedLoop& loop, double duration_s, int every) {
       pt[r] = sim.time_s();
       std::memcpy(px + r * kStateSize, sim.state().data(), sizeof(double) * kStateSize);
       std::memcpy(pxm + r * kStateSize, sim.measured_state().data(), sizeof(double) * kStateSize);
-      std::memcpy(pw + r * nr, sim.rotor_speeds_rad_s().data(), sizeof(double) * static_cast<std::size_t>(nr));
+      std::memcpy(pw + r * nr, sim.rotor_speeds_rad_s().data(),
+                  sizeof(double) * static_cast<std::size_t>(nr));
       std::memcpy(pwr + r * nr, sim.rotor_speed_reference_rad_s().data(),
                   sizeof(double) * static_cast<std::size_t>(nr));
       const ReferencePoint p = loop.reference().at(sim.time_s());
@@ -208,7 +213,8 @@ py::dict record(ClosedLoop& loop, double duration_s, int every) {
   d["diagnostic_names"] = diag_names;
   d["status"] = sim.status();
   d["failure_message"] = sim.failure_message();
-  d["state_columns"] = py::make_tuple("x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "wx", "wy", "wz");
+  d["state_columns"] =
+      py::make_tuple("x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "wx", "wy", "wz");
   return d;
 }
 
@@ -221,7 +227,8 @@ void bind_control(py::module_& m) {
              ReferencePoint r;
              r.position_m = to_fixed<3>(p, "ReferencePoint.position_m");
              if (!v.is_none()) r.velocity_m_s = to_fixed<3>(v, "ReferencePoint.velocity_m_s");
-             if (!a.is_none()) r.acceleration_m_s2 = to_fixed<3>(a, "ReferencePoint.acceleration_m_s2");
+             if (!a.is_none())
+               r.acceleration_m_s2 = to_fixed<3>(a, "ReferencePoint.acceleration_m_s2");
              r.yaw_rad = yaw;
              r.yaw_rate_rad_s = yaw_rate;
              return r;
@@ -247,14 +254,16 @@ void bind_control(py::module_& m) {
   py::class_<SetpointReference, Reference, std::shared_ptr<SetpointReference>>(
       m, "SetpointReference", "Hold one position and yaw.")
       .def(py::init([](py::handle p, double yaw) {
-             return std::make_shared<SetpointReference>(to_fixed<3>(p, "SetpointReference: position_m"), yaw);
+             return std::make_shared<SetpointReference>(
+                 to_fixed<3>(p, "SetpointReference: position_m"), yaw);
            }),
            py::arg("position_m"), py::arg("yaw_rad") = 0.0);
 
   py::class_<PiecewiseConstantReference::Segment>(m, "PiecewiseSegment",
                                                   "A step of a piecewise-constant reference.")
       .def(py::init([](double start, py::handle p, double yaw) {
-             return PiecewiseConstantReference::Segment{start, to_fixed<3>(p, "PiecewiseSegment: position_m"), yaw};
+             return PiecewiseConstantReference::Segment{
+                 start, to_fixed<3>(p, "PiecewiseSegment: position_m"), yaw};
            }),
            py::arg("start_s"), py::arg("position_m"), py::arg("yaw_rad") = 0.0)
       .def_readwrite("start_s", &PiecewiseConstantReference::Segment::start_s)
@@ -267,23 +276,30 @@ void bind_control(py::module_& m) {
              return std::make_shared<PiecewiseConstantReference>(std::move(s));
            }),
            py::arg("segments"))
-      .def_static("thesis_pulse",
-                  [] { return std::make_shared<PiecewiseConstantReference>(PiecewiseConstantReference::thesis_pulse()); },
-                  "The pulse of thesis Eq. 3.14.")
+      .def_static(
+          "thesis_pulse",
+          [] {
+            return std::make_shared<PiecewiseConstantReference>(
+                PiecewiseConstantReference::thesis_pulse());
+          },
+          "The pulse of thesis Eq. 3.14.")
       .def_property_readonly("segments", &PiecewiseConstantReference::segments);
 
   py::class_<CircleReference, Reference, std::shared_ptr<CircleReference>>(
       m, "CircleReference", "Circle of thesis Eq. 3.28 (default: radius 2 m, period 7 s, z = 1 m).")
       .def(py::init([](py::handle c, double r, double period, double yaw) {
-             return std::make_shared<CircleReference>(to_fixed<3>(c, "CircleReference: center_m"), r, period, yaw);
+             return std::make_shared<CircleReference>(to_fixed<3>(c, "CircleReference: center_m"),
+                                                      r, period, yaw);
            }),
-           py::arg("center_m") = Vec3(0, 0, 1), py::arg("radius_m") = 2.0, py::arg("period_s") = 7.0,
-           py::arg("yaw_rad") = 0.0);
+           py::arg("center_m") = Vec3(0, 0, 1), py::arg("radius_m") = 2.0,
+           py::arg("period_s") = 7.0, py::arg("yaw_rad") = 0.0);
 
   py::class_<FigureEightReference, Reference, std::shared_ptr<FigureEightReference>>(
-      m, "FigureEightReference", "Figure eight of thesis Eq. 3.25 (0.8 m x 0.6 m, 60 s, z = 1.2 m).")
+      m, "FigureEightReference",
+      "Figure eight of thesis Eq. 3.25 (0.8 m x 0.6 m, 60 s, z = 1.2 m).")
       .def(py::init([](py::handle c, double ax, double ay, double period) {
-             return std::make_shared<FigureEightReference>(to_fixed<3>(c, "FigureEightReference: center_m"), ax, ay, period);
+             return std::make_shared<FigureEightReference>(
+                 to_fixed<3>(c, "FigureEightReference: center_m"), ax, ay, period);
            }),
            py::arg("center_m") = Vec3(0, 0, 1.2), py::arg("amplitude_x_m") = 0.8,
            py::arg("amplitude_y_m") = 0.6, py::arg("period_s") = 60.0);
@@ -330,13 +346,15 @@ void bind_control(py::module_& m) {
       "name(self) -> str, reset(self). A ClosedLoop runs it at its control rate on the measured\n"
       "state; the output is checked (finite, right length) before it is flown.")
       .def(py::init([](const std::shared_ptr<VehicleModel>& model, AllocationMethod allocation) {
-             if (!model) throw py::value_error("ControllerBase: model must be a VehicleModel, got None");
+             if (!model)
+               throw py::value_error("ControllerBase: model must be a VehicleModel, got None");
              return new PyController(model, allocation);
            }),
            py::arg("model"), py::arg("allocation") = AllocationMethod::kExact)
-      .def("name", [](const ControllerBase& c) { return std::string(c.name()); },
-           "The controller's name in logs and messages (Python subclasses: the class name unless "
-           "overridden).")
+      .def(
+          "name", [](const ControllerBase& c) { return std::string(c.name()); },
+          "The controller's name in logs and messages (Python subclasses: the class name unless "
+          "overridden).")
       .def("level", &ControllerBase::level,
            "ControlLevel: GENERALIZED_FORCE (calculate_u) or ROTOR_SPEED (calculate_actuator_cmd).")
       .def("reset", &ControllerBase::reset, "Clears internal memory before a new run.")
@@ -357,11 +375,13 @@ void bind_control(py::module_& m) {
            "Generalized force [T, tau_x, tau_y, tau_z] for `inp` (checked).")
       .def("calculate_actuator_cmd", &ControllerBase::calculate_actuator_cmd, py::arg("inp"),
            "Rotor speed references for `inp` (allocated for generalized-force controllers).")
-      .def_property_readonly("model", [](const ControllerBase& c) {
-        return std::const_pointer_cast<VehicleModel>(c.model_ptr());
-      })
+      .def_property_readonly("model",
+                             [](const ControllerBase& c) {
+                               return std::const_pointer_cast<VehicleModel>(c.model_ptr());
+                             })
       .def_property("allocation", &ControllerBase::allocation, &ControllerBase::set_allocation)
-      .def_property_readonly("last_allocation", [](const ControllerBase& c) { return c.last_allocation(); });
+      .def_property_readonly("last_allocation",
+                             [](const ControllerBase& c) { return c.last_allocation(); });
 
   py::enum_<PidYawLoop>(m, "PidYawLoop")
       .value("THESIS", PidYawLoop::kThesis, "As printed (Eq. 3.19).")
@@ -392,13 +412,14 @@ void bind_control(py::module_& m) {
 
   py::class_<CascadedPid, ControllerBase>(m, "CascadedPid", "Cascaded PID (thesis Eq. 3.15-3.20).")
       .def(py::init([](const std::shared_ptr<VehicleModel>& model, const PidGains& g,
-                       const PidOptions& o, double period, AllocationMethod a) {
-             return new CascadedPid(model, g, o, period, a);
-           }),
+                       const PidOptions& o, double period,
+                       AllocationMethod a) { return new CascadedPid(model, g, o, period, a); }),
            py::arg("model"), py::arg("gains"), py::arg("options") = PidOptions{},
            py::arg("control_period_s") = 1.0e-3, py::arg("allocation") = AllocationMethod::kExact)
-      .def_property_readonly("gains", [](const CascadedPid& c) { return c.gains(); }, "A copy of the gains.")
-      .def_property_readonly("options", [](const CascadedPid& c) { return c.options(); }, "A copy of the options.")
+      .def_property_readonly(
+          "gains", [](const CascadedPid& c) { return c.gains(); }, "A copy of the gains.")
+      .def_property_readonly(
+          "options", [](const CascadedPid& c) { return c.options(); }, "A copy of the options.")
       .def_property_readonly("integral", [](const CascadedPid& c) { return Vec4(c.integral()); });
 
   py::class_<Se3Gains>(m, "Se3Gains", "Gains of the SE(3) controller (thesis Eq. 3.29).")
@@ -417,15 +438,17 @@ void bind_control(py::module_& m) {
       .def_readwrite("max_tilt_rad", &Se3Options::max_tilt_rad)
       .def_readwrite("nonnegative_thrust", &Se3Options::nonnegative_thrust);
 
-  py::class_<Se3Controller, ControllerBase>(m, "Se3Controller",
-                                            "Geometric tracking control on SE(3) (thesis Eq. 3.26-3.29).")
+  py::class_<Se3Controller, ControllerBase>(
+      m, "Se3Controller", "Geometric tracking control on SE(3) (thesis Eq. 3.26-3.29).")
       .def(py::init([](const std::shared_ptr<VehicleModel>& model, const Se3Gains& g,
-                       const Se3Options& o, AllocationMethod a) { return new Se3Controller(model, g, o, a); }),
+                       const Se3Options& o,
+                       AllocationMethod a) { return new Se3Controller(model, g, o, a); }),
            py::arg("model"), py::arg("gains"), py::arg("options") = Se3Options{},
            py::arg("allocation") = AllocationMethod::kExact)
-      .def_property_readonly("gains", [](const Se3Controller& c) { return c.gains(); }, "A copy of the gains.")
-      .def_property_readonly("options", [](const Se3Controller& c) { return c.options(); }, "A copy of the options.");
-
+      .def_property_readonly(
+          "gains", [](const Se3Controller& c) { return c.gains(); }, "A copy of the gains.")
+      .def_property_readonly(
+          "options", [](const Se3Controller& c) { return c.options(); }, "A copy of the options.");
 
   py::enum_<NmpcLinearSolver>(m, "NmpcLinearSolver")
       .value("DENSE_QR", NmpcLinearSolver::kDenseQr)
@@ -433,8 +456,10 @@ void bind_control(py::module_& m) {
   py::enum_<NmpcTermination>(m, "NmpcTermination", "How an NMPC solve ended.")
       .value("NOT_RUN", NmpcTermination::kNotRun)
       .value("CONVERGED", NmpcTermination::kConverged)
-      .value("ITERATION_CAP", NmpcTermination::kIterationCap, "Iteration cap or time budget; best iterate kept.")
-      .value("FAILURE", NmpcTermination::kFailure, "Solver failure, non-finite plan or injected failure.");
+      .value("ITERATION_CAP", NmpcTermination::kIterationCap,
+             "Iteration cap or time budget; best iterate kept.")
+      .value("FAILURE", NmpcTermination::kFailure,
+             "Solver failure, non-finite plan or injected failure.");
   py::enum_<NmpcMode>(m, "NmpcMode", "What the NMPC flies.")
       .value("PLAN", NmpcMode::kPlan, "The plan of the latest solve.")
       .value("PREVIOUS_PLAN", NmpcMode::kPreviousPlan, "Fallback: the last good plan, shifted.")
@@ -481,23 +506,31 @@ void bind_control(py::module_& m) {
       "Outer-loop NMPC of the Eq. 3.23 model solved with Ceres every step_s, over an SE(3)\n"
       "attitude loop run at every call (docs/controllers.md). The plan of the latest solve is\n"
       "available for plotting: predicted_states() ((N+1) x 13) from plan_start_time_s().")
-      .def(py::init([](const std::shared_ptr<VehicleModel>& model, const NmpcOptions& o, double rate,
-                       AllocationMethod a) { return new NmpcController(model, o, rate, a); }),
-           py::arg("model"), py::arg("options") = NmpcOptions{}, py::arg("call_rate_hz") = 1000.0,
-           py::arg("allocation") = AllocationMethod::kExact,
-           "`call_rate_hz`: the ClosedLoop's control rate (a whole multiple of 1 / step_s).")
+      .def(
+          py::init([](const std::shared_ptr<VehicleModel>& model, const NmpcOptions& o, double rate,
+                      AllocationMethod a) { return new NmpcController(model, o, rate, a); }),
+          py::arg("model"), py::arg("options") = NmpcOptions{}, py::arg("call_rate_hz") = 1000.0,
+          py::arg("allocation") = AllocationMethod::kExact,
+          "`call_rate_hz`: the ClosedLoop's control rate (a whole multiple of 1 / step_s).")
       .def_property_readonly("options", [](const NmpcController& c) { return c.options(); })
       .def_property_readonly("calls_per_solve", &NmpcController::calls_per_solve)
-      .def("last_solve", [](const NmpcController& c) { return c.last_solve(); },
-           "NmpcSolveStats of the most recent solve.")
+      .def(
+          "last_solve", [](const NmpcController& c) { return c.last_solve(); },
+          "NmpcSolveStats of the most recent solve.")
       .def_property_readonly("mode", &NmpcController::mode)
-      .def("predicted_states", [](const NmpcController& c) { return Eigen::MatrixXd(c.predicted_states()); },
-           "States x_0..x_N of the latest successful plan ((N+1) x 13; empty before one).")
-      .def("predicted_inputs", [](const NmpcController& c) { return Eigen::MatrixXd(c.predicted_inputs()); },
-           "Inputs u_0..u_{N-1} ([F_W, M_B], N x 6).")
+      .def(
+          "predicted_states",
+          [](const NmpcController& c) { return Eigen::MatrixXd(c.predicted_states()); },
+          "States x_0..x_N of the latest successful plan ((N+1) x 13; empty before one).")
+      .def(
+          "predicted_inputs",
+          [](const NmpcController& c) { return Eigen::MatrixXd(c.predicted_inputs()); },
+          "Inputs u_0..u_{N-1} ([F_W, M_B], N x 6).")
       .def_property_readonly("plan_start_time_s", &NmpcController::plan_start_time_s)
-      .def_property_readonly("disturbance_estimate", [](const NmpcController& c) { return Vec3(c.disturbance_estimate()); })
-      .def_property_readonly("commanded_force", [](const NmpcController& c) { return Vec3(c.commanded_force()); })
+      .def_property_readonly("disturbance_estimate",
+                             [](const NmpcController& c) { return Vec3(c.disturbance_estimate()); })
+      .def_property_readonly("commanded_force",
+                             [](const NmpcController& c) { return Vec3(c.commanded_force()); })
       .def("inject_solve_failures", &NmpcController::inject_solve_failures, py::arg("first"),
            py::arg("count"), "Testing hook: treat solves first..first+count-1 as failed.");
 
@@ -518,7 +551,9 @@ void bind_control(py::module_& m) {
            "Steps for duration_s of simulated time (GIL released; Python controllers retake it).")
       .def(
           "record",
-          [](ClosedLoop& loop, double duration_s, int every) { return record(loop, duration_s, every); },
+          [](ClosedLoop& loop, double duration_s, int every) {
+            return record(loop, duration_s, every);
+          },
           py::arg("duration_s"), py::arg("every_n_steps") = 1,
           "Like run(), recording a row at the start and after every every_n_steps-th step:\n"
           "a dict of numpy arrays t (K,), state and measured_state (K, 13), rotor_speeds_rad_s\n"
@@ -531,16 +566,21 @@ void bind_control(py::module_& m) {
       .def_property_readonly("achieved_real_time_factor", &ClosedLoop::achieved_real_time_factor)
       .def_property_readonly("steps_per_control", &ClosedLoop::steps_per_control)
       .def_property_readonly("last_input", [](const ClosedLoop& l) { return l.last_input(); })
-      .def_property_readonly("last_command", [](const ClosedLoop& l) { return Vec4(l.last_command()); })
+      .def_property_readonly("last_command",
+                             [](const ClosedLoop& l) { return Vec4(l.last_command()); })
       .def_property_readonly("last_rotor_command",
                              [](const ClosedLoop& l) { return copy_of(l.last_rotor_command()); })
       .def_property_readonly("control_updates", &ClosedLoop::control_updates)
       .def_property_readonly("saturated_updates", &ClosedLoop::saturated_updates);
 
-  m.def("yaw_of", [](py::handle q) {
-    const Vec4 qq = to_fixed<4>(q, "yaw_of: quaternion");
-    return std::atan2(2.0 * (qq[0] * qq[3] + qq[1] * qq[2]), 1.0 - 2.0 * (qq[2] * qq[2] + qq[3] * qq[3]));
-  }, py::arg("q_wxyz"), "ZYX yaw (rad) of a quaternion [w, x, y, z] (atan2 form).");
+  m.def(
+      "yaw_of",
+      [](py::handle q) {
+        const Vec4 qq = to_fixed<4>(q, "yaw_of: quaternion");
+        return std::atan2(2.0 * (qq[0] * qq[3] + qq[1] * qq[2]),
+                          1.0 - 2.0 * (qq[2] * qq[2] + qq[3] * qq[3]));
+      },
+      py::arg("q_wxyz"), "ZYX yaw (rad) of a quaternion [w, x, y, z] (atan2 form).");
 }
 
 }  // namespace dronetwin::python

@@ -18,7 +18,8 @@ ControllerLoopInput& controller_input(Experiment& e) {
                         "', not a controller");
 }
 
-RunSummary run(const Experiment& e, const std::string& out_dir, const std::shared_ptr<VehicleModel>& model) {
+RunSummary run(const Experiment& e, const std::string& out_dir,
+               const std::shared_ptr<VehicleModel>& model) {
   py::gil_scoped_release release;
   if (model) return run_experiment(e, model, out_dir);
   return run_experiment(e, out_dir);
@@ -56,11 +57,14 @@ void bind_io(py::module_& m) {
           [](Experiment& e, py::handle w) { e.wind_m_s = to_fixed<3>(w, "Experiment.wind_m_s"); })
       .def_property(
           "gravity_m_s2", [](const Experiment& e) { return e.gravity_m_s2; },
-          [](Experiment& e, py::handle g) { e.gravity_m_s2 = to_fixed<3>(g, "Experiment.gravity_m_s2"); })
+          [](Experiment& e, py::handle g) {
+            e.gravity_m_s2 = to_fixed<3>(g, "Experiment.gravity_m_s2");
+          })
       .def_readwrite("disturbances", &Experiment::disturbances)
       .def_readwrite("ground", &Experiment::ground)
       .def_readwrite("log", &Experiment::log)
-      .def_property_readonly("input_type", [](const Experiment& e) { return std::string(input_type_name(e.input)); })
+      .def_property_readonly(
+          "input_type", [](const Experiment& e) { return std::string(input_type_name(e.input)); })
       .def_property(
           "controller_path", [](Experiment& e) { return controller_input(e).controller_path; },
           [](Experiment& e, const std::string& p) { controller_input(e).controller_path = p; },
@@ -70,20 +74,24 @@ void bind_io(py::module_& m) {
           [](Experiment& e, double r) { controller_input(e).control_rate_hz = r; })
       .def_property_readonly(
           "reference",
-          [](Experiment& e) { return std::shared_ptr<Reference>(controller_input(e).reference->clone()); },
+          [](Experiment& e) {
+            return std::shared_ptr<Reference>(controller_input(e).reference->clone());
+          },
           "A copy of the reference of a controller input.")
       .def("sim_config", &Experiment::sim_config, "The Simulator settings (validated).")
       .def("num_steps", &Experiment::num_steps,
            "Physics steps of the run: duration_s / physics_dt_s rounded up.")
-      .def("validate", [](const Experiment& e) { validate(e); },
-           "Re-checks the editable fields; ValueError naming the field.");
+      .def(
+          "validate", [](const Experiment& e) { validate(e); },
+          "Re-checks the editable fields; ValueError naming the field.");
 
   m.def("load_experiment", &load_experiment, py::arg("path"),
         "Reads and checks an experiment file; ValueError '<path>: <field>: <what>' otherwise.");
   m.def("parse_experiment", &parse_experiment, py::arg("yaml_text"), py::arg("source_name"),
         "An experiment from YAML text; relative paths resolve against source_name's directory.");
 
-  py::class_<DiagnosticSummary>(m, "DiagnosticSummary", "Statistics of one controller diagnostic over a run.")
+  py::class_<DiagnosticSummary>(m, "DiagnosticSummary",
+                                "Statistics of one controller diagnostic over a run.")
       .def_readonly("name", &DiagnosticSummary::name)
       .def_readonly("count", &DiagnosticSummary::count)
       .def_readonly("sum", &DiagnosticSummary::sum)
@@ -92,15 +100,17 @@ void bind_io(py::module_& m) {
       .def_readonly("p99", &DiagnosticSummary::p99)
       .def_readonly("max", &DiagnosticSummary::max);
 
-  py::class_<ClosedLoopSummary>(m, "ClosedLoopSummary", "What a closed-loop run adds to its summary.")
+  py::class_<ClosedLoopSummary>(m, "ClosedLoopSummary",
+                                "What a closed-loop run adds to its summary.")
       .def_readonly("controller_name", &ClosedLoopSummary::controller_name)
       .def_readonly("controller_path", &ClosedLoopSummary::controller_path)
       .def_readonly("allocation", &ClosedLoopSummary::allocation)
       .def_readonly("reference_type", &ClosedLoopSummary::reference_type)
       .def_readonly("reference", &ClosedLoopSummary::reference)
       .def_readonly("control_rate_hz", &ClosedLoopSummary::control_rate_hz)
-      .def_property_readonly("rmse", [](const ClosedLoopSummary& s) { return Vec4(s.rmse); },
-                             "RMSE [x, y, z, yaw] (m, m, m, rad) of the true state in the window.")
+      .def_property_readonly(
+          "rmse", [](const ClosedLoopSummary& s) { return Vec4(s.rmse); },
+          "RMSE [x, y, z, yaw] (m, m, m, rad) of the true state in the window.")
       .def_readonly("rmse_window_s", &ClosedLoopSummary::rmse_window_s)
       .def_readonly("rmse_samples", &ClosedLoopSummary::rmse_samples)
       .def_readonly("control_updates", &ClosedLoopSummary::control_updates)
@@ -109,7 +119,8 @@ void bind_io(py::module_& m) {
       .def_readonly("diagnostics", &ClosedLoopSummary::diagnostics,
                     "Per-diagnostic statistics (e.g. the NMPC's solve times and failures).");
 
-  py::class_<RunSummary>(m, "RunSummary", "The outcome of run_experiment (summary.json as an object).")
+  py::class_<RunSummary>(m, "RunSummary",
+                         "The outcome of run_experiment (summary.json as an object).")
       .def_readonly("experiment_name", &RunSummary::experiment_name)
       .def_readonly("model_name", &RunSummary::model_name)
       .def_readonly("seed", &RunSummary::seed)
@@ -120,7 +131,8 @@ void bind_io(py::module_& m) {
       .def_readonly("status", &RunSummary::status)
       .def_readonly("failure_message", &RunSummary::failure_message)
       .def_property_readonly("ok", &RunSummary::ok)
-      .def_property_readonly("final_state", [](const RunSummary& s) { return StateVector(s.final_state); })
+      .def_property_readonly("final_state",
+                             [](const RunSummary& s) { return StateVector(s.final_state); })
       .def_readonly("min_z_m", &RunSummary::min_z_m)
       .def_readonly("max_z_m", &RunSummary::max_z_m)
       .def_readonly("max_speed_m_s", &RunSummary::max_speed_m_s)
@@ -136,17 +148,21 @@ void bind_io(py::module_& m) {
                     "The log's JSON sidecar (log.json: units and run settings).")
       .def("to_json", &summary_to_json, "The text of summary.json.")
       .def("__repr__", [](const RunSummary& s) {
-        return "RunSummary('" + s.experiment_name + "', status=" + std::string(status_name(s.status)) +
+        return "RunSummary('" + s.experiment_name +
+               "', status=" + std::string(status_name(s.status)) +
                ", steps=" + std::to_string(s.steps) + ")";
       });
 
-  m.def("run_experiment", &run, py::arg("experiment"), py::arg("out_dir"), py::arg("model") = nullptr,
+  m.def("run_experiment", &run, py::arg("experiment"), py::arg("out_dir"),
+        py::arg("model") = nullptr,
         "Runs an Experiment exactly as `dronetwin run` does, writing out_dir/log.csv and\n"
         "out_dir/summary.json; returns the RunSummary. `model` (optional) replaces the model file\n"
         "(sweeps load it once). The GIL is released during the run.");
   m.def(
       "run_experiment_file",
-      [](const std::string& path, const std::string& out_dir) { return run(load_experiment(path), out_dir, nullptr); },
+      [](const std::string& path, const std::string& out_dir) {
+        return run(load_experiment(path), out_dir, nullptr);
+      },
       py::arg("path"), py::arg("out_dir"), "load_experiment(path) then run_experiment.");
 
   m.def(
@@ -170,9 +186,8 @@ void bind_io(py::module_& m) {
       .def_readonly("unit", &LogColumn::unit,
                     "'s', 'm', 'm/s', '1' (dimensionless), 'rad', 'rad/s', 'N', 'N m', 'bool', ...")
       .def_readonly("meaning", &LogColumn::meaning)
-      .def("__repr__", [](const LogColumn& c) {
-        return "LogColumn('" + c.name + "', unit='" + c.unit + "')";
-      });
+      .def("__repr__",
+           [](const LogColumn& c) { return "LogColumn('" + c.name + "', unit='" + c.unit + "')"; });
 
   py::class_<LogMetadata>(
       m, "LogMetadata",
@@ -220,10 +235,12 @@ void bind_io(py::module_& m) {
             return units;
           },
           "{column name: unit} for every column.")
-      .def("to_json", &log_metadata_to_json, "The sidecar's JSON text (as run_experiment writes it).")
+      .def("to_json", &log_metadata_to_json,
+           "The sidecar's JSON text (as run_experiment writes it).")
       .def("__repr__", [](const LogMetadata& d) {
-        return "LogMetadata('" + d.experiment + "', model='" + d.model + "', seed=" +
-               std::to_string(d.seed) + ", " + std::to_string(d.columns.size()) + " columns)";
+        return "LogMetadata('" + d.experiment + "', model='" + d.model +
+               "', seed=" + std::to_string(d.seed) + ", " + std::to_string(d.columns.size()) +
+               " columns)";
       });
 
   m.def("read_log_metadata", &read_log_metadata, py::arg("json_path"),
@@ -241,17 +258,19 @@ void bind_io(py::module_& m) {
       "fnv1a64", [](const py::bytes& data) { return fnv1a64(std::string_view(data)); },
       py::arg("data"), "64-bit FNV-1a of a bytes object, as an int.");
 
-  m.def("log_column_names",
-        [](int num_rotors, bool measured, bool wrench_breakdown, bool controller) {
-          return log_column_names(LogLayout{num_rotors, measured, wrench_breakdown, controller});
-        },
-        py::arg("num_rotors") = 4, py::arg("measured") = true, py::arg("wrench_breakdown") = false,
-        py::arg("controller") = false, "The column names of a run log with these groups.");
+  m.def(
+      "log_column_names",
+      [](int num_rotors, bool measured, bool wrench_breakdown, bool controller) {
+        return log_column_names(LogLayout{num_rotors, measured, wrench_breakdown, controller});
+      },
+      py::arg("num_rotors") = 4, py::arg("measured") = true, py::arg("wrench_breakdown") = false,
+      py::arg("controller") = false, "The column names of a run log with these groups.");
 
   m.def(
       "load_controller",
       [](const std::string& path, const std::shared_ptr<VehicleModel>& model, double rate) {
-        if (!model) throw py::value_error("load_controller: model must be a VehicleModel, got None");
+        if (!model)
+          throw py::value_error("load_controller: model must be a VehicleModel, got None");
         return load_controller(path, model, rate);
       },
       py::arg("path"), py::arg("model"), py::arg("control_rate_hz"),
@@ -260,7 +279,8 @@ void bind_io(py::module_& m) {
       "controller_from_yaml",
       [](const std::string& text, const std::shared_ptr<VehicleModel>& model, double rate,
          const std::string& source) {
-        if (!model) throw py::value_error("controller_from_yaml: model must be a VehicleModel, got None");
+        if (!model)
+          throw py::value_error("controller_from_yaml: model must be a VehicleModel, got None");
         return make_controller_from_yaml(text, source, model, rate);
       },
       py::arg("yaml_text"), py::arg("model"), py::arg("control_rate_hz"),

@@ -18,15 +18,15 @@ ModelPtr share(VehicleModel model) { return std::make_shared<VehicleModel>(std::
 }  // namespace
 
 void bind_model(py::module_& m) {
-  py::enum_<AllocationMethod>(m, "AllocationMethod",
-                              "How generalized forces [T, tau_x, tau_y, tau_z] become rotor speeds.")
+  py::enum_<AllocationMethod>(
+      m, "AllocationMethod", "How generalized forces [T, tau_x, tau_y, tau_z] become rotor speeds.")
       .value("EXACT", AllocationMethod::kExact,
              "Thrust-first pseudo-inverse of the allocation matrix with saturation handling.")
       .value("THESIS", AllocationMethod::kThesis,
              "Thesis Eq. 2.31: w_i^2 = (A^+ u)_i / 'K1 (drops 'K2 and 'K3).");
 
-  py::class_<RotorParams>(m, "RotorParams",
-                          "Parameters of one rotor (propeller + motor), SI units (thesis Table 2.1).")
+  py::class_<RotorParams>(
+      m, "RotorParams", "Parameters of one rotor (propeller + motor), SI units (thesis Table 2.1).")
       .def(py::init<>())
       .def_property(
           "position_m", [](const RotorParams& r) { return r.position_m; },
@@ -59,8 +59,9 @@ void bind_model(py::module_& m) {
                      "Motor lag time constant while slowing down, s.")
       .def_readwrite("min_speed_rad_s", &RotorParams::min_speed_rad_s)
       .def_readwrite("max_speed_rad_s", &RotorParams::max_speed_rad_s)
-      .def("thrust", [](const RotorParams& r, double w) { return r.thrust(w); }, py::arg("speed_rad_s"),
-           "Thrust T(w) in N at rotor speed w in rad/s (Eq. 2.22).")
+      .def(
+          "thrust", [](const RotorParams& r, double w) { return r.thrust(w); },
+          py::arg("speed_rad_s"), "Thrust T(w) in N at rotor speed w in rad/s (Eq. 2.22).")
       .def("speed_for_thrust", &RotorParams::speed_for_thrust, py::arg("thrust_N"),
            "The speed (rad/s) giving `thrust_N`, clamped to the speed limits.")
       .def("__repr__", [](const RotorParams& r) {
@@ -85,15 +86,19 @@ void bind_model(py::module_& m) {
       .def_readwrite("body_drag_Ns_per_m", &VehicleSpec::body_drag_Ns_per_m,
                      "3x3 body drag matrix A (F = -A v_air, body frame), N s/m.")
       .def_readwrite("ground_effect_min_height_m", &VehicleSpec::ground_effect_min_height_m)
-      .def_readwrite("rotors", &VehicleSpec::rotors, "The rotors (a copy; assign a list to change).")
+      .def_readwrite("rotors", &VehicleSpec::rotors,
+                     "The rotors (a copy; assign a list to change).")
       .def("to_yaml", &vehicle_spec_to_yaml, "The spec as model-file YAML text.")
       .def("save", &save_vehicle_spec, py::arg("path"), "Writes the spec as a model file.");
 
   py::class_<AllocationResult>(m, "AllocationResult", "Result of an allocation with saturation.")
-      .def_property_readonly("speeds_rad_s", [](const AllocationResult& r) { return copy_of(r.speeds_rad_s); })
-      .def_property_readonly("thrusts_N", [](const AllocationResult& r) { return copy_of(r.thrusts_N); })
-      .def_property_readonly("achieved", [](const AllocationResult& r) { return copy_of(r.achieved); },
-                             "The generalized force the thrusts give (= the request unless saturated).")
+      .def_property_readonly("speeds_rad_s",
+                             [](const AllocationResult& r) { return copy_of(r.speeds_rad_s); })
+      .def_property_readonly("thrusts_N",
+                             [](const AllocationResult& r) { return copy_of(r.thrusts_N); })
+      .def_property_readonly(
+          "achieved", [](const AllocationResult& r) { return copy_of(r.achieved); },
+          "The generalized force the thrusts give (= the request unless saturated).")
       .def_readonly("moment_scale", &AllocationResult::moment_scale,
                     "Factor (0..1) applied to the requested moments to respect the rotor limits.")
       .def_readonly("saturated", &AllocationResult::saturated);
@@ -109,10 +114,13 @@ void bind_model(py::module_& m) {
       .def_property_readonly("name", &VehicleModel::name)
       .def_property_readonly("num_rotors", &VehicleModel::num_rotors)
       .def_property_readonly("mass_kg", &VehicleModel::mass_kg)
-      .def_property_readonly("inertia_kgm2", [](const VehicleModel& v) { return Mat3(v.inertia_kgm2()); })
-      .def_property_readonly("body_drag_Ns_per_m", [](const VehicleModel& v) { return Mat3(v.body_drag_Ns_per_m()); })
-      .def_property_readonly("spec", [](const VehicleModel& v) { return v.spec(); },
-                             "A copy of the spec the model was built from (edit it for variants).")
+      .def_property_readonly("inertia_kgm2",
+                             [](const VehicleModel& v) { return Mat3(v.inertia_kgm2()); })
+      .def_property_readonly("body_drag_Ns_per_m",
+                             [](const VehicleModel& v) { return Mat3(v.body_drag_Ns_per_m()); })
+      .def_property_readonly(
+          "spec", [](const VehicleModel& v) { return v.spec(); },
+          "A copy of the spec the model was built from (edit it for variants).")
       .def_property_readonly(
           "rotors",
           [](const VehicleModel& v) {
@@ -121,12 +129,15 @@ void bind_model(py::module_& m) {
             return r;
           },
           "Copies of the rotor parameters.")
-      .def("rotor", [](const VehicleModel& v, int i) {
+      .def(
+          "rotor",
+          [](const VehicleModel& v, int i) {
             if (i < 0 || i >= v.num_rotors())
               throw py::index_error("rotor index " + std::to_string(i) + " out of range [0, " +
                                     std::to_string(v.num_rotors()) + ")");
             return v.rotor(i);
-          }, py::arg("index"), "A copy of rotor `index`'s parameters.")
+          },
+          py::arg("index"), "A copy of rotor `index`'s parameters.")
       .def_property_readonly(
           "allocation_matrix",
           [](const VehicleModel& v) { return Eigen::MatrixXd(v.allocation_matrix()); },
@@ -139,50 +150,59 @@ void bind_model(py::module_& m) {
           "wrench_matrix", [](const VehicleModel& v) { return Eigen::MatrixXd(v.wrench_matrix()); },
           "6 x N matrix: [F_B; M_B] per unit thrust of each rotor.")
       .def_property_readonly("wrench_rank", &VehicleModel::wrench_rank)
-      .def("hover_speeds_rad_s",
-           [](const VehicleModel& v, double g) { return copy_of(v.hover_speeds_rad_s(g)); },
-           py::arg("gravity_m_s2") = 9.81, "Rotor speeds that hold the vehicle level in hover.")
-      .def("hover_thrusts_N",
-           [](const VehicleModel& v, double g) { return copy_of(v.hover_thrusts_N(g)); },
-           py::arg("gravity_m_s2") = 9.81, "Rotor thrusts in hover.")
-      .def("thrusts_for",
-           [](const VehicleModel& v, py::handle u) {
-             return copy_of(v.thrusts_for(to_fixed<4>(u, "thrusts_for: u")));
-           },
-           py::arg("u"), "Rotor thrusts A^+ u for a generalized force u = [T, tau_x, tau_y, tau_z].")
-      .def("allocate",
-           [](const VehicleModel& v, py::handle u, AllocationMethod method) {
-             const GeneralizedForce uu = to_fixed<4>(u, "allocate: u");
-             if (method == AllocationMethod::kExact) return allocate_with_saturation(v, uu);
-             AllocationResult r;
-             r.speeds_rad_s = allocate_speeds(v, uu, method);
-             r.thrusts_N.resize(v.num_rotors());
-             for (int i = 0; i < v.num_rotors(); ++i) r.thrusts_N[i] = v.rotor(i).thrust(r.speeds_rad_s[i]);
-             r.achieved = v.allocation_matrix() * r.thrusts_N;
-             r.saturated = (r.achieved - uu).norm() > 1e-9 * (1.0 + uu.norm());
-             return r;
-           },
-           py::arg("u"), py::arg("method") = AllocationMethod::kExact,
-           "Rotor speeds for the generalized force u, with saturation information.")
-      .def("to_yaml", [](const VehicleModel& v) { return vehicle_spec_to_yaml(v.spec()); },
-           "The model's spec as model-file YAML text.")
+      .def(
+          "hover_speeds_rad_s",
+          [](const VehicleModel& v, double g) { return copy_of(v.hover_speeds_rad_s(g)); },
+          py::arg("gravity_m_s2") = 9.81, "Rotor speeds that hold the vehicle level in hover.")
+      .def(
+          "hover_thrusts_N",
+          [](const VehicleModel& v, double g) { return copy_of(v.hover_thrusts_N(g)); },
+          py::arg("gravity_m_s2") = 9.81, "Rotor thrusts in hover.")
+      .def(
+          "thrusts_for",
+          [](const VehicleModel& v, py::handle u) {
+            return copy_of(v.thrusts_for(to_fixed<4>(u, "thrusts_for: u")));
+          },
+          py::arg("u"), "Rotor thrusts A^+ u for a generalized force u = [T, tau_x, tau_y, tau_z].")
+      .def(
+          "allocate",
+          [](const VehicleModel& v, py::handle u, AllocationMethod method) {
+            const GeneralizedForce uu = to_fixed<4>(u, "allocate: u");
+            if (method == AllocationMethod::kExact) return allocate_with_saturation(v, uu);
+            AllocationResult r;
+            r.speeds_rad_s = allocate_speeds(v, uu, method);
+            r.thrusts_N.resize(v.num_rotors());
+            for (int i = 0; i < v.num_rotors(); ++i)
+              r.thrusts_N[i] = v.rotor(i).thrust(r.speeds_rad_s[i]);
+            r.achieved = v.allocation_matrix() * r.thrusts_N;
+            r.saturated = (r.achieved - uu).norm() > 1e-9 * (1.0 + uu.norm());
+            return r;
+          },
+          py::arg("u"), py::arg("method") = AllocationMethod::kExact,
+          "Rotor speeds for the generalized force u, with saturation information.")
+      .def(
+          "to_yaml", [](const VehicleModel& v) { return vehicle_spec_to_yaml(v.spec()); },
+          "The model's spec as model-file YAML text.")
       .def("__repr__", [](const VehicleModel& v) {
         return "VehicleModel('" + v.name() + "', rotors=" + std::to_string(v.num_rotors()) +
                ", mass_kg=" + std::to_string(v.mass_kg()) + ")";
       });
 
-  m.def("load_model", [](const std::string& path) { return share(load_vehicle_model(path)); },
-        py::arg("path"),
-        "Reads and validates a model file (docs/model-format.md). ValueError names the file and "
-        "field of any problem.");
-  m.def("load_spec", &load_vehicle_spec, py::arg("path"),
-        "Reads a model file into an editable VehicleSpec (validated when a VehicleModel is built).");
-  m.def("parse_model",
-        [](const std::string& text, const std::string& source) {
-          return share(VehicleModel(parse_vehicle_spec(text, source)));
-        },
-        py::arg("yaml_text"), py::arg("source_name") = "<string>",
-        "Builds a model from model-file YAML text; `source_name` stands for the file in messages.");
+  m.def(
+      "load_model", [](const std::string& path) { return share(load_vehicle_model(path)); },
+      py::arg("path"),
+      "Reads and validates a model file (docs/model-format.md). ValueError names the file and "
+      "field of any problem.");
+  m.def(
+      "load_spec", &load_vehicle_spec, py::arg("path"),
+      "Reads a model file into an editable VehicleSpec (validated when a VehicleModel is built).");
+  m.def(
+      "parse_model",
+      [](const std::string& text, const std::string& source) {
+        return share(VehicleModel(parse_vehicle_spec(text, source)));
+      },
+      py::arg("yaml_text"), py::arg("source_name") = "<string>",
+      "Builds a model from model-file YAML text; `source_name` stands for the file in messages.");
 }
 
 }  // namespace dronetwin::python

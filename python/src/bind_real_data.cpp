@@ -23,7 +23,8 @@ py::array_t<double> array_of(const std::vector<double>& v) {
 
 py::dict topic_dict(const ULogTopic& t) {
   py::dict d;
-  for (std::size_t i = 0; i < t.columns.size(); ++i) d[py::str(t.columns[i])] = array_of(t.values[i]);
+  for (std::size_t i = 0; i < t.columns.size(); ++i)
+    d[py::str(t.columns[i])] = array_of(t.values[i]);
   return d;
 }
 
@@ -36,11 +37,12 @@ void bind_real_data(py::module_& m) {
       .def_readonly("text", &ULogMessage::text)
       .def_readonly("tag", &ULogMessage::tag);
 
-  py::class_<ULog>(m, "ULog",
-                   "A PX4 ULog file read into memory (format: PX4's ULog v1 description).\n\n"
-                   "    log = dronetwin.read_ulog('flight.ulg')\n"
-                   "    log.topic_names()                      # [('vehicle_attitude', 0), ...]\n"
-                   "    att = log.topic('vehicle_attitude')    # {field: numpy array}, timestamp in s")
+  py::class_<ULog>(
+      m, "ULog",
+      "A PX4 ULog file read into memory (format: PX4's ULog v1 description).\n\n"
+      "    log = dronetwin.read_ulog('flight.ulg')\n"
+      "    log.topic_names()                      # [('vehicle_attitude', 0), ...]\n"
+      "    att = log.topic('vehicle_attitude')    # {field: numpy array}, timestamp in s")
       .def_readonly("source", &ULog::source)
       .def_readonly("version", &ULog::version)
       .def_readonly("start_timestamp_us", &ULog::start_timestamp_us)
@@ -51,42 +53,53 @@ void bind_real_data(py::module_& m) {
       .def_readonly("messages", &ULog::messages)
       .def_readonly("dropout_total_ms", &ULog::dropout_total_ms)
       .def_readonly("dropout_count", &ULog::dropout_count)
-      .def("topic_names",
-           [](const ULog& l) {
-             std::vector<std::pair<std::string, int>> names;
-             for (const ULogTopic& t : l.topics) names.emplace_back(t.name, t.multi_id);
-             return names;
-           },
-           "(name, multi_id) of every logged topic instance.")
+      .def(
+          "topic_names",
+          [](const ULog& l) {
+            std::vector<std::pair<std::string, int>> names;
+            for (const ULogTopic& t : l.topics) names.emplace_back(t.name, t.multi_id);
+            return names;
+          },
+          "(name, multi_id) of every logged topic instance.")
       .def("has_topic", &ULog::has_topic, py::arg("name"), py::arg("multi_id") = 0,
            "Whether the topic instance was logged.")
-      .def("topic", [](const ULog& l, const std::string& name, int id) { return topic_dict(l.topic(name, id)); },
-           py::arg("name"), py::arg("multi_id") = 0,
-           "A topic instance as {flattened field: float64 array}; 'timestamp' in seconds. "
-           "ValueError listing the logged topics if it is absent.");
+      .def(
+          "topic",
+          [](const ULog& l, const std::string& name, int id) {
+            return topic_dict(l.topic(name, id));
+          },
+          py::arg("name"), py::arg("multi_id") = 0,
+          "A topic instance as {flattened field: float64 array}; 'timestamp' in seconds. "
+          "ValueError listing the logged topics if it is absent.");
   m.def("read_ulog", &read_ulog, py::arg("path"), py::call_guard<py::gil_scoped_release>(),
         "Reads a PX4 ULog file; ValueError naming the file and byte offset if it is malformed.");
 
-  py::class_<LinearFit>(m, "LinearFit", "A least-squares fit with standard errors (Ceres covariance).")
+  py::class_<LinearFit>(m, "LinearFit",
+                        "A least-squares fit with standard errors (Ceres covariance).")
       .def_readonly("names", &LinearFit::names)
       .def_readonly("coefficients", &LinearFit::coefficients)
       .def_readonly("std_errors", &LinearFit::std_errors)
       .def_readonly("residual_rms", &LinearFit::residual_rms)
       .def_readonly("num_points", &LinearFit::num_points)
-      .def("as_dict", [](const LinearFit& f) {
-             py::dict d;
-             for (std::size_t i = 0; i < f.names.size(); ++i)
-               d[py::str(f.names[i])] = py::make_tuple(f.coefficients[i], f.std_errors[i]);
-             return d;
-           }, "{name: (estimate, standard error)}.");
+      .def(
+          "as_dict",
+          [](const LinearFit& f) {
+            py::dict d;
+            for (std::size_t i = 0; i < f.names.size(); ++i)
+              d[py::str(f.names[i])] = py::make_tuple(f.coefficients[i], f.std_errors[i]);
+            return d;
+          },
+          "{name: (estimate, standard error)}.");
 
-  py::class_<SpeedMap>(m, "SpeedMap", "Rotor speed from PWM and battery voltage: w = a u + b, u = pwm/65535 vbat.")
+  py::class_<SpeedMap>(m, "SpeedMap",
+                       "Rotor speed from PWM and battery voltage: w = a u + b, u = pwm/65535 vbat.")
       .def_readonly("a_rad_s_per_V", &SpeedMap::a_rad_s_per_V)
       .def_readonly("b_rad_s", &SpeedMap::b_rad_s)
       .def("speed_rad_s", &SpeedMap::speed_rad_s, py::arg("pwm"), py::arg("vbat_V"),
            "Rotor speed (rad/s) at this PWM and battery voltage (0 when the motor is off).");
 
-  py::class_<ThrustStandFit>(m, "ThrustStandFit", "Thrust-stand fit of the Crazyflie (docs/identification.md).")
+  py::class_<ThrustStandFit>(m, "ThrustStandFit",
+                             "Thrust-stand fit of the Crazyflie (docs/identification.md).")
       .def_readonly("source", &ThrustStandFit::source)
       .def_readonly("tare_g", &ThrustStandFit::tare_g)
       .def_readonly("thrust", &ThrustStandFit::thrust, "K1, K2, K3 of Eq. 2.22, per motor.")
@@ -108,7 +121,8 @@ void bind_real_data(py::module_& m) {
       py::arg("path"), py::arg("subtract_tare") = true,
       "Fits the thrust polynomial (Eq. 2.22) and the speed map to a Crazyflie thrust-stand CSV.");
 
-  py::class_<VerticalFitResult>(m, "VerticalFitResult", "Vertical thrust-to-mass fit of a real flight.")
+  py::class_<VerticalFitResult>(m, "VerticalFitResult",
+                                "Vertical thrust-to-mass fit of a real flight.")
       .def_readonly("fit", &VerticalFitResult::fit)
       .def_readonly("mass_kg", &VerticalFitResult::mass_kg)
       .def_readonly("mass_std_error_kg", &VerticalFitResult::mass_std_error_kg)
@@ -123,8 +137,8 @@ void bind_real_data(py::module_& m) {
                     "Held-out residual RMS with the prior mass (no fit).");
   m.def(
       "fit_vertical",
-      [](const std::string& log_path, const std::shared_ptr<VehicleModel>& model, double train_fraction,
-         bool fit_drag, double min_height_m, double prior_mass_kg) {
+      [](const std::string& log_path, const std::shared_ptr<VehicleModel>& model,
+         double train_fraction, bool fit_drag, double min_height_m, double prior_mass_kg) {
         if (!model) throw py::value_error("fit_vertical: model must be a VehicleModel, got None");
         py::gil_scoped_release release;
         VerticalFitOptions o;
@@ -134,8 +148,8 @@ void bind_real_data(py::module_& m) {
         o.prior_mass_kg = prior_mass_kg;
         return fit_vertical(read_csv_log(log_path), *model, o);
       },
-      py::arg("log_path"), py::arg("model"), py::arg("train_fraction") = 0.7, py::arg("fit_drag") = true,
-      py::arg("min_height_m") = 0.15, py::arg("prior_mass_kg") = 0.0,
+      py::arg("log_path"), py::arg("model"), py::arg("train_fraction") = 0.7,
+      py::arg("fit_drag") = true, py::arg("min_height_m") = 0.15, py::arg("prior_mass_kg") = 0.0,
       "Fits thrust per unit mass (and a vertical drag) to an imported flight log's vertical\n"
       "acceleration, training on the first train_fraction and reporting the held-out error.");
 

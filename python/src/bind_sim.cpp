@@ -45,7 +45,8 @@ void bind_sim(py::module_& m) {
   py::enum_<StepStatus>(m, "StepStatus", "Outcome of a physics step.")
       .value("OK", StepStatus::kOk)
       .value("NON_FINITE", StepStatus::kNonFinite, "The integrated state had NaN or inf.")
-      .value("DIVERGED", StepStatus::kDiverged, "Position, speed or rate beyond the divergence limits.");
+      .value("DIVERGED", StepStatus::kDiverged,
+             "Position, speed or rate beyond the divergence limits.");
 
   py::enum_<Term>(m, "Term", "Force and moment terms of the model (wrench breakdown).")
       .value("THRUST", Term::kThrust)
@@ -78,10 +79,10 @@ void bind_sim(py::module_& m) {
       .def_readwrite("body_drag", &DisturbanceSwitches::body_drag)
       .def("__repr__", [](const DisturbanceSwitches& d) {
         const auto b = [](bool x) { return x ? std::string("True") : std::string("False"); };
-        return "DisturbanceSwitches(rotor_drag=" + b(d.rotor_drag) + ", rolling_moment=" +
-               b(d.rolling_moment) + ", drag_moment=" + b(d.drag_moment) + ", ground_effect=" +
-               b(d.ground_effect) + ", gyroscopic=" + b(d.gyroscopic) + ", body_drag=" +
-               b(d.body_drag) + ")";
+        return "DisturbanceSwitches(rotor_drag=" + b(d.rotor_drag) +
+               ", rolling_moment=" + b(d.rolling_moment) + ", drag_moment=" + b(d.drag_moment) +
+               ", ground_effect=" + b(d.ground_effect) + ", gyroscopic=" + b(d.gyroscopic) +
+               ", body_drag=" + b(d.body_drag) + ")";
       });
 
   py::class_<Environment>(m, "Environment", "Gravity and wind, world frame (z up).")
@@ -93,11 +94,14 @@ void bind_sim(py::module_& m) {
       .value("PER_SAMPLE", OuDrift::kPerSample, "-Theta Y per sample (thesis Eq. 3.5; default).")
       .value("CONTINUOUS", OuDrift::kContinuous, "-Theta Y dt (thesis Eq. 3.4, Euler-Maruyama).");
 
-  py::class_<BlockCoefficients>(m, "BlockCoefficients",
-                                "One state block of Theta or Sigma: a on the diagonal plus b everywhere "
-                                "in the block (thesis Eq. 3.8-3.9).")
-      .def(py::init([](double a, double b) { return BlockCoefficients{a, b}; }), py::arg("a") = 0.0,
-           py::arg("b") = 0.0)
+  py::class_<BlockCoefficients>(
+      m, "BlockCoefficients",
+      "One state block of Theta or Sigma: a on the diagonal plus b everywhere "
+      "in the block (thesis Eq. 3.8-3.9).")
+      .def(py::init([](double a, double b) {
+             return BlockCoefficients{a, b};
+           }),
+           py::arg("a") = 0.0, py::arg("b") = 0.0)
       .def_readwrite("a", &BlockCoefficients::a)
       .def_readwrite("b", &BlockCoefficients::b);
 
@@ -151,8 +155,9 @@ void bind_sim(py::module_& m) {
            "Settings with the most used fields given by keyword; the rest at their defaults.")
       .def_readwrite("dt_s", &SimConfig::dt_s, "Physics step, s (thesis: 1 ms).")
       .def_readwrite("integrator", &SimConfig::integrator)
-      .def_readwrite("motor_dynamics", &SimConfig::motor_dynamics,
-                     "First-order motor lag (Eq. 2.43-2.45); off: speed = clamped reference at once.")
+      .def_readwrite(
+          "motor_dynamics", &SimConfig::motor_dynamics,
+          "First-order motor lag (Eq. 2.43-2.45); off: speed = clamped reference at once.")
       .def_readwrite("allocation", &SimConfig::allocation,
                      "How Simulator.set_generalized_force allocates.")
       .def_readwrite("disturbances", &SimConfig::disturbances)
@@ -161,8 +166,9 @@ void bind_sim(py::module_& m) {
       .def_readwrite("ground", &SimConfig::ground)
       .def_readwrite("divergence", &SimConfig::divergence)
       .def_readwrite("seed", &SimConfig::seed, "Seed of the simulator's random stream (noise).")
-      .def("validate", [](const SimConfig& c) { validate(c); },
-           "Raises ValueError naming the field when a setting is out of range.");
+      .def(
+          "validate", [](const SimConfig& c) { validate(c); },
+          "Raises ValueError naming the field when a setting is out of range.");
 
   py::class_<ContactState>(m, "ContactState", "Ground contact bookkeeping.")
       .def_readonly("in_contact", &ContactState::in_contact)
@@ -204,14 +210,16 @@ void bind_sim(py::module_& m) {
       .def_static(
           "hover_state",
           [](py::handle position, double yaw) {
-            return copy_of(Simulator::hover_state(to_fixed<3>(position, "hover_state: position"), yaw));
+            return copy_of(
+                Simulator::hover_state(to_fixed<3>(position, "hover_state: position"), yaw));
           },
           py::arg("position_m"), py::arg("yaw_rad") = 0.0,
           "A level state at rest at `position_m` with yaw `yaw_rad` (13 numbers).")
       .def_property_readonly(
-          "model", [](const Simulator& s) { return std::const_pointer_cast<VehicleModel>(s.model_ptr()); })
-      .def_property_readonly("config", [](const Simulator& s) { return s.config(); },
-                             "A copy of the run settings.")
+          "model",
+          [](const Simulator& s) { return std::const_pointer_cast<VehicleModel>(s.model_ptr()); })
+      .def_property_readonly(
+          "config", [](const Simulator& s) { return s.config(); }, "A copy of the run settings.")
       .def(
           "reset",
           [](Simulator& s, py::handle state, py::object rotor_speeds) {
@@ -219,16 +227,20 @@ void bind_sim(py::module_& m) {
             if (rotor_speeds.is_none()) {
               s.reset(x);
             } else {
-              s.reset(x, to_rotor_vector(rotor_speeds, s.model().num_rotors(), "reset: rotor_speeds"));
+              s.reset(x,
+                      to_rotor_vector(rotor_speeds, s.model().num_rotors(), "reset: rotor_speeds"));
             }
           },
           py::arg("state"), py::arg("rotor_speeds_rad_s") = py::none(),
           "Restarts the run at time 0 with `state` and rotor speeds (default: stopped); the "
           "reference equals the speeds, noise is zeroed and the random stream reseeded.")
-      .def("reseed", &Simulator::reseed, py::arg("seed"), "reset() with a new seed (kept in config).")
+      .def("reseed", &Simulator::reseed, py::arg("seed"),
+           "reset() with a new seed (kept in config).")
       .def(
           "set_state",
-          [](Simulator& s, py::handle state) { s.set_state(to_fixed<kStateSize>(state, "set_state: state")); },
+          [](Simulator& s, py::handle state) {
+            s.set_state(to_fixed<kStateSize>(state, "set_state: state"));
+          },
           py::arg("state"), "Overwrites the rigid-body state (checked; quaternion normalised).")
       .def(
           "set_rotor_speeds",
@@ -247,7 +259,9 @@ void bind_sim(py::module_& m) {
           "non-finite values or a wrong length, TypeError for another dtype).")
       .def(
           "set_generalized_force",
-          [](Simulator& s, py::handle u) { s.set_generalized_force(to_fixed<4>(u, "set_generalized_force")); },
+          [](Simulator& s, py::handle u) {
+            s.set_generalized_force(to_fixed<4>(u, "set_generalized_force"));
+          },
           py::arg("u"),
           "Generalized force [T, tau_x, tau_y, tau_z] (N, N m), allocated with config.allocation.")
       .def("step", py::overload_cast<>(&Simulator::step),
@@ -287,20 +301,23 @@ void bind_sim(py::module_& m) {
                         self, true);
           },
           "Rotor speed references, a writable view (num_rotors,): the zero-copy way to actuate.")
-      .def("state_derivative", [](const Simulator& s) { return copy_of(s.state_derivative()); },
-           "f(state, rotor speeds) = [v_W, a_W, q_dot, w_dot_B] now (a new array).")
-      .def("measured_state_derivative",
-           [](const Simulator& s) { return copy_of(s.measured_state_derivative()); },
-           "state_derivative() + its own OU noise (a new array).")
-      .def("wrench_breakdown", [](const Simulator& s) { return breakdown_dict(s.wrench_breakdown()); },
-           "Force and moment of each term now, body frame: {term: [Fx, Fy, Fz, Mx, My, Mz]} "
-           "plus 'total'.")
+      .def(
+          "state_derivative", [](const Simulator& s) { return copy_of(s.state_derivative()); },
+          "f(state, rotor speeds) = [v_W, a_W, q_dot, w_dot_B] now (a new array).")
+      .def(
+          "measured_state_derivative",
+          [](const Simulator& s) { return copy_of(s.measured_state_derivative()); },
+          "state_derivative() + its own OU noise (a new array).")
+      .def(
+          "wrench_breakdown",
+          [](const Simulator& s) { return breakdown_dict(s.wrench_breakdown()); },
+          "Force and moment of each term now, body frame: {term: [Fx, Fy, Fz, Mx, My, Mz]} "
+          "plus 'total'.")
       .def_property_readonly("contact", [](const Simulator& s) { return s.contact(); })
       .def_property_readonly("status", &Simulator::status)
       .def_property_readonly("failure_message", &Simulator::failure_message)
       .def(
-          "set_wind",
-          [](Simulator& s, py::handle w) { s.set_wind(to_fixed<3>(w, "set_wind")); },
+          "set_wind", [](Simulator& s, py::handle w) { s.set_wind(to_fixed<3>(w, "set_wind")); },
           py::arg("wind_W_m_s"), "Air velocity, world frame, m/s (from the next step on).")
       .def("set_disturbances", &Simulator::set_disturbances, py::arg("switches"),
            "Switches disturbance terms on or off from the next step on (DisturbanceSwitches).")
@@ -308,10 +325,13 @@ void bind_sim(py::module_& m) {
            "Turns the OU measurement noise on or off (measured_state is refreshed at once).")
       .def("refresh_measured_state", &Simulator::refresh_measured_state,
            "Recomputes measured_state after writing `state` directly.")
-      .def("copy", [](const Simulator& s) { return Simulator(s); },
-           "An independent copy (same model, same data); step it anywhere.")
+      .def(
+          "copy", [](const Simulator& s) { return Simulator(s); },
+          "An independent copy (same model, same data); step it anywhere.")
       .def("__copy__", [](const Simulator& s) { return Simulator(s); })
-      .def("__deepcopy__", [](const Simulator& s, py::dict) { return Simulator(s); }, py::arg("memo"))
+      .def(
+          "__deepcopy__", [](const Simulator& s, py::dict) { return Simulator(s); },
+          py::arg("memo"))
       .def("__repr__", [](const Simulator& s) {
         return "Simulator(model='" + s.model().name() + "', t=" + std::to_string(s.time_s()) +
                " s, status=" + std::string(status_name(s.status())) + ")";

@@ -23,7 +23,8 @@ std::string describe_object(py::handle obj) {
     const auto a = py::reinterpret_borrow<py::array>(obj);
     std::ostringstream s;
     s << with_article(py::str(a.dtype()).cast<std::string>()) << " array of shape (";
-    for (py::ssize_t i = 0; i < a.ndim(); ++i) s << a.shape(i) << (a.ndim() == 1 || i + 1 < a.ndim() ? "," : "");
+    for (py::ssize_t i = 0; i < a.ndim(); ++i)
+      s << a.shape(i) << (a.ndim() == 1 || i + 1 < a.ndim() ? "," : "");
     s << ")";
     return s.str();
   }
@@ -91,8 +92,9 @@ PYBIND11_MODULE(_core, m) {
       "dronetwin._core: the C++ engine of dronetwin (models, Simulator, controllers, references,\n"
       "experiment runner, logs). Import the package `dronetwin` rather than this module.";
   m.attr("__version__") = std::string(dronetwin::version());
-  m.def("version", [] { return std::string(dronetwin::version()); },
-        "The dronetwin version the extension was built as.");
+  m.def(
+      "version", [] { return std::string(dronetwin::version()); },
+      "The dronetwin version the extension was built as.");
   dp::bind_model(m);
   dp::bind_sim(m);
   dp::bind_control(m);

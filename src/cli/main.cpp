@@ -2,8 +2,8 @@
 //
 //   dronetwin run EXPERIMENT.yaml --out DIR [--seed N] [--duration S] [--real-time] [--quiet]
 //   dronetwin info MODEL.yaml
-//   dronetwin import crazypad|ulog ...; dronetwin identify stand|vertical ...  (real_data_commands.hpp)
-//   dronetwin --version
+//   dronetwin import crazypad|ulog ...; dronetwin identify stand|vertical ...
+//   (real_data_commands.hpp) dronetwin --version
 //
 // Exit codes: 0 success, 1 internal error, 2 bad input (malformed file, bad option; the message
 // goes to stderr as "error: ..."), 3 the run failed (diverged or non-finite state; log and

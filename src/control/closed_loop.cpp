@@ -17,8 +17,7 @@ ClosedLoop::ClosedLoop(Simulator& sim, ControllerBase& controller, const Referen
   const double ratio = physics_hz / control_rate_hz;
   steps_per_control_ = static_cast<int>(std::lround(ratio));
   require(steps_per_control_ >= 1 && std::abs(ratio - steps_per_control_) < 1e-9 * ratio,
-          "control_rate_hz: ", control_rate_hz,
-          " Hz must divide the physics rate (", physics_hz,
+          "control_rate_hz: ", control_rate_hz, " Hz must divide the physics rate (", physics_hz,
           " Hz) into a whole number of steps (thesis Eq. 3.11: f_control <= f_physics)");
   require(controller.model().num_rotors() == sim.model().num_rotors(), "controller '",
           controller.name(), "' was built for ", controller.model().num_rotors(),

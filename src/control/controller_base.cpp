@@ -19,9 +19,8 @@ void ControllerBase::check_input(const ControlInput& in) const {
   for (int i = 0; i < kStateSize; ++i) {
     require(std::isfinite(in.state[i]), "controller '", name(), "': state[", i,
             "]: expected a finite number, got ", in.state[i]);
-    require(std::isfinite(in.state_derivative[i]), "controller '", name(),
-            "': state_derivative[", i, "]: expected a finite number, got ",
-            in.state_derivative[i]);
+    require(std::isfinite(in.state_derivative[i]), "controller '", name(), "': state_derivative[",
+            i, "]: expected a finite number, got ", in.state_derivative[i]);
   }
   const ReferencePoint& r = in.reference;
   require(r.position_m.allFinite() && r.velocity_m_s.allFinite() &&
@@ -34,9 +33,10 @@ GeneralizedForce ControllerBase::calculate_u(const ControlInput& in) {
   check_input(in);
   const GeneralizedForce u = do_calculate_u(in);
   if (!u.allFinite()) {
-    throw SimulationError(detail::concat("controller '", name(), "' returned a non-finite "
-                                         "generalized force [", u.transpose(), "] at t = ",
-                                         in.time_s, " s"));
+    throw SimulationError(detail::concat("controller '", name(),
+                                         "' returned a non-finite "
+                                         "generalized force [",
+                                         u.transpose(), "] at t = ", in.time_s, " s"));
   }
   return u;
 }

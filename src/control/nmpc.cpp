@@ -70,11 +70,11 @@ void NmpcOptions::validate() const {
             "; expected horizon_steps = ", horizon_steps);
   }
   for (int i = 0; i < kNx; ++i)
-    require(std::isfinite(state_weights[i]) && state_weights[i] >= 0.0,
-            "nmpc: state_weights[", i, "]: expected a finite weight >= 0, got ", state_weights[i]);
+    require(std::isfinite(state_weights[i]) && state_weights[i] >= 0.0, "nmpc: state_weights[", i,
+            "]: expected a finite weight >= 0, got ", state_weights[i]);
   for (int i = 0; i < kNu; ++i)
-    require(std::isfinite(input_weights[i]) && input_weights[i] >= 0.0,
-            "nmpc: input_weights[", i, "]: expected a finite weight >= 0, got ", input_weights[i]);
+    require(std::isfinite(input_weights[i]) && input_weights[i] >= 0.0, "nmpc: input_weights[", i,
+            "]: expected a finite weight >= 0, got ", input_weights[i]);
   require(std::isfinite(tilt_penalty_weight) && tilt_penalty_weight >= 0.0,
           "nmpc: tilt_penalty_weight: expected a finite number >= 0, got ", tilt_penalty_weight);
   require(std::isfinite(terminal_weight_scale) && terminal_weight_scale >= 0.0,
@@ -89,16 +89,16 @@ void NmpcOptions::validate() const {
           "min_thrust_N = ",
           min_thrust_N, ", got ", max_thrust_N);
   for (int i = 0; i < 3; ++i)
-    require(std::isfinite(max_moment_Nm[i]) && max_moment_Nm[i] > 0.0, "nmpc: max_moment_Nm[",
-            i, "]: expected a finite number > 0, got ", max_moment_Nm[i]);
+    require(std::isfinite(max_moment_Nm[i]) && max_moment_Nm[i] > 0.0, "nmpc: max_moment_Nm[", i,
+            "]: expected a finite number > 0, got ", max_moment_Nm[i]);
   require(std::isfinite(disturbance_gain) && disturbance_gain >= 0.0 && disturbance_gain <= 1.0,
           "nmpc: disturbance_gain: expected a number in [0, 1], got ", disturbance_gain);
   require(std::isfinite(max_disturbance_m_s2) && max_disturbance_m_s2 >= 0.0,
           "nmpc: max_disturbance_m_s2: expected a finite number >= 0, got ", max_disturbance_m_s2);
   require(max_iterations >= 0 && max_iterations <= 1000,
           "nmpc: max_iterations: expected an integer in [0, 1000], got ", max_iterations);
-  require(max_solve_time_s > 0.0, "nmpc: max_solve_time_s: expected > 0 (infinity: no budget), got ",
-          max_solve_time_s);
+  require(max_solve_time_s > 0.0,
+          "nmpc: max_solve_time_s: expected > 0 (infinity: no budget), got ", max_solve_time_s);
   require(std::isfinite(function_tolerance) && function_tolerance > 0.0,
           "nmpc: function_tolerance: expected a finite number > 0, got ", function_tolerance);
 }
@@ -292,8 +292,7 @@ bool HorizonCost::Evaluate(double const* const* parameters, double* residuals,
     for (int k = 1; k <= N; ++k) {
       const double scale = k == N ? s.sqrt_terminal : 1.0;
       double* r = residuals + kNx * (k - 1);
-      for (int i = 0; i < kNx; ++i)
-        r[i] = scale * s.sqrt_q[i] * (s.x_steps(k, i) - s.x_ref(k, i));
+      for (int i = 0; i < kNx; ++i) r[i] = scale * s.sqrt_q[i] * (s.x_steps(k, i) - s.x_ref(k, i));
       const int tr = tilt_row(k);
       if (tr < 0) continue;
       const double qx = s.x_steps(k, 7), qy = s.x_steps(k, 8);
@@ -461,8 +460,8 @@ void NmpcController::inject_solve_failures(std::int64_t first, std::int64_t coun
 }
 
 std::vector<std::string> NmpcController::diagnostic_names() const {
-  return {"solved",      "iterations",          "initial_cost", "final_cost", "solve_time_ms",
-          "termination", "failed",              "mode",         "consecutive_failures"};
+  return {"solved",      "iterations", "initial_cost", "final_cost",          "solve_time_ms",
+          "termination", "failed",     "mode",         "consecutive_failures"};
 }
 
 void NmpcController::diagnostics(double* out) const {
@@ -539,7 +538,8 @@ void NmpcController::solve(const ControlInput& in) {
       r = preview_->at(in.time_s + tau);
     } else {
       r = in.reference;
-      r.position_m += in.reference.velocity_m_s * tau + 0.5 * in.reference.acceleration_m_s2 * tau * tau;
+      r.position_m +=
+          in.reference.velocity_m_s * tau + 0.5 * in.reference.acceleration_m_s2 * tau * tau;
       r.velocity_m_s += in.reference.acceleration_m_s2 * tau;
       r.yaw_rad += in.reference.yaw_rate_rad_s * tau;
     }
@@ -575,8 +575,10 @@ void NmpcController::solve(const ControlInput& in) {
   const std::int64_t shift = plan_solve_index_ >= 0 ? index - plan_solve_index_ : N;
   for (int b = 0; b < s.nb; ++b) {
     const std::int64_t src = s.block_start[static_cast<std::size_t>(b)] + shift;
-    InputVec u = src < N ? InputVec(plan_u_.row(src).transpose())
-                         : InputVec(s.u_ref.row(std::min(s.block_start[static_cast<std::size_t>(b)], N - 1)).transpose());
+    InputVec u =
+        src < N ? InputVec(plan_u_.row(src).transpose())
+                : InputVec(s.u_ref.row(std::min(s.block_start[static_cast<std::size_t>(b)], N - 1))
+                               .transpose());
     double* z = s.block(b);
     z[0] = std::clamp(u[2], s.lower[0], s.upper[0]);
     z[1] = std::clamp(u[0] / z[0], s.lower[1], s.upper[1]);

@@ -72,9 +72,9 @@ std::string PiecewiseConstantReference::describe() const {
 CircleReference::CircleReference(const Vec3& center_m, double radius_m, double period_s,
                                  double yaw_rad)
     : center_m_(center_m), radius_m_(radius_m), period_s_(period_s), yaw_rad_(yaw_rad) {
-  require(center_m.allFinite() && std::isfinite(radius_m) && radius_m >= 0.0 &&
-              std::isfinite(yaw_rad),
-          "circle reference: expected a finite centre and yaw and a radius >= 0");
+  require(
+      center_m.allFinite() && std::isfinite(radius_m) && radius_m >= 0.0 && std::isfinite(yaw_rad),
+      "circle reference: expected a finite centre and yaw and a radius >= 0");
   require(std::isfinite(period_s) && period_s > 0.0,
           "circle reference: period_s: expected > 0, got ", period_s);
 }

@@ -133,8 +133,8 @@ GeneralizedForce Se3Controller::do_calculate_u(const ControlInput& in) {
   if (options_.nonnegative_thrust) f = std::max(f, 0.0);
 
   // ---- attitude law (Eq. 3.27-3.28, w_des = 0) ------------------------------------------------
-  const Vec3 M = se3_attitude_moment(R, w_B, b3d, ref.yaw_rad, gains_.attitude_p,
-                                     gains_.attitude_d, model().inertia_kgm2());
+  const Vec3 M = se3_attitude_moment(R, w_B, b3d, ref.yaw_rad, gains_.attitude_p, gains_.attitude_d,
+                                     model().inertia_kgm2());
 
   GeneralizedForce u;
   u << f, M;

@@ -66,8 +66,8 @@ double tilt(const Reader& rd, const YAML::Node& node, const std::string& path) {
 
 constexpr std::array<std::string_view, 3> kTypes = {"pid", "se3", "nmpc"};
 constexpr std::array<std::string_view, 12> kTopKeys = {
-    "type",    "description", "allocation", "mass_kg", "gravity_m_s2", "gains",
-    "limits",  "options",     "horizon",    "weights", "solver",       "disturbance"};
+    "type",   "description", "allocation", "mass_kg", "gravity_m_s2", "gains",
+    "limits", "options",     "horizon",    "weights", "solver",       "disturbance"};
 constexpr std::array<std::string_view, 2> kAllocations = {"exact", "thesis"};
 
 constexpr std::array<std::string_view, 6> kPidGainKeys = {"outer_p", "outer_d",  "outer_i",
@@ -89,8 +89,8 @@ constexpr std::array<std::string_view, 4> kNmpcWeightKeys = {"state", "input", "
                                                              "tilt_penalty"};
 constexpr std::array<std::string_view, 3> kNmpcLimitKeys = {"thrust_N", "max_tilt_rad",
                                                             "max_moment_Nm"};
-constexpr std::array<std::string_view, 4> kNmpcSolverKeys = {
-    "max_iterations", "max_solve_time_s", "function_tolerance", "linear_solver"};
+constexpr std::array<std::string_view, 4> kNmpcSolverKeys = {"max_iterations", "max_solve_time_s",
+                                                             "function_tolerance", "linear_solver"};
 constexpr std::array<std::string_view, 2> kNmpcDisturbanceKeys = {"gain", "max_m_s2"};
 constexpr std::array<std::string_view, 2> kLinearSolvers = {"dense_normal_cholesky", "dense_qr"};
 constexpr std::array<std::string_view, 4> kNmpcOnlyKeys = {"horizon", "weights", "solver",
@@ -195,14 +195,14 @@ void read_nmpc(const Reader& rd, const Map& top, ControllerConfig& c) {
     }
     if (sum != o.horizon_steps)
       rd.fail(n, path,
-              "block lengths sum to " + std::to_string(sum) + "; expected horizon.steps = " +
-                  std::to_string(o.horizon_steps));
+              "block lengths sum to " + std::to_string(sum) +
+                  "; expected horizon.steps = " + std::to_string(o.horizon_steps));
   }
 
   const Map w = rd.map(top.required("weights"), "weights", kNmpcWeightKeys,
                        "a map with state, input and optionally terminal_scale");
-  o.state_weights = gains<13>(rd, w.required("state"), w.path("state"),
-                              "p (3), v (3), q (4), w (3)");
+  o.state_weights =
+      gains<13>(rd, w.required("state"), w.path("state"), "p (3), v (3), q (4), w (3)");
   o.input_weights = gains<6>(rd, w.required("input"), w.path("input"), "F (3), M (3)");
   if (w.has("terminal_scale")) {
     o.terminal_weight_scale = rd.number(w.get("terminal_scale"), w.path("terminal_scale"));
@@ -224,7 +224,8 @@ void read_nmpc(const Reader& rd, const Map& top, ControllerConfig& c) {
     if (!(o.disturbance_gain >= 0.0 && o.disturbance_gain <= 1.0))
       rd.fail(d.get("gain"), d.path("gain"),
               "expected a number in [0, 1], got " + d.get("gain").Scalar());
-    if (d.has("max_m_s2")) o.max_disturbance_m_s2 = rd.positive(d.get("max_m_s2"), d.path("max_m_s2"));
+    if (d.has("max_m_s2"))
+      o.max_disturbance_m_s2 = rd.positive(d.get("max_m_s2"), d.path("max_m_s2"));
   }
 
   const Map g = rd.map(top.required("gains"), "gains", kSe3GainKeys,
@@ -241,7 +242,7 @@ void read_nmpc(const Reader& rd, const Map& top, ControllerConfig& c) {
     const Map l = rd.map(top.get("limits"), "limits", kNmpcLimitKeys, "a map of limits");
     if (l.has("thrust_N")) {
       const Eigen::Vector2d t = gains<2>(rd, l.get("thrust_N"), l.path("thrust_N"), "min, max in N",
-                              /*positive_only=*/true);
+                                         /*positive_only=*/true);
       o.min_thrust_N = t[0];
       o.max_thrust_N = t[1];
     }
@@ -269,10 +270,10 @@ void read_nmpc(const Reader& rd, const Map& top, ControllerConfig& c) {
     if (p.has("function_tolerance"))
       o.function_tolerance = rd.positive(p.get("function_tolerance"), p.path("function_tolerance"));
     if (p.has("linear_solver"))
-      o.linear_solver = choice(rd, p.get("linear_solver"), p.path("linear_solver"),
-                               kLinearSolvers) == 0
-                            ? NmpcLinearSolver::kDenseNormalCholesky
-                            : NmpcLinearSolver::kDenseQr;
+      o.linear_solver =
+          choice(rd, p.get("linear_solver"), p.path("linear_solver"), kLinearSolvers) == 0
+              ? NmpcLinearSolver::kDenseNormalCholesky
+              : NmpcLinearSolver::kDenseQr;
   }
 }
 
@@ -286,7 +287,8 @@ ControllerConfig parse_controller_config(const std::string& yaml_text,
   ControllerConfig c;
   c.source = source_name;
   const std::size_t type = choice(rd, top.required("type"), "type", kTypes);
-  c.type = type == 0 ? ControllerType::kPid : (type == 1 ? ControllerType::kSe3 : ControllerType::kNmpc);
+  c.type =
+      type == 0 ? ControllerType::kPid : (type == 1 ? ControllerType::kSe3 : ControllerType::kNmpc);
   if (c.type != ControllerType::kNmpc)
     for (const std::string_view key : kNmpcOnlyKeys)
       if (top.has(key)) rd.fail(top.get(key), std::string(key), "only for type nmpc");

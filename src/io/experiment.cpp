@@ -37,18 +37,17 @@ using Names = std::vector<std::string_view>;
 
 // ---- key tables -------------------------------------------------------------------------------
 
-const Names kTopLevelKeys = {"name",         "description",   "model",        "seed",
-                             "duration_s",   "physics_dt_s",  "integrator",   "motor_dynamics",
-                             "noise",        "wind_m_s",      "gravity_m_s2", "disturbances",
-                             "ground",       "initial_state", "log",          "metrics",
-                             "input"};
+const Names kTopLevelKeys = {
+    "name",       "description",    "model", "seed",     "duration_s",   "physics_dt_s",
+    "integrator", "motor_dynamics", "noise", "wind_m_s", "gravity_m_s2", "disturbances",
+    "ground",     "initial_state",  "log",   "metrics",  "input"};
 const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
 const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
 const Names kBlockKeys = {"a", "b"};
 const Names kDisturbanceKeys(kDisturbanceSwitchNames.begin(), kDisturbanceSwitchNames.end());
 const Names kGroundKeys = {"enabled", "crash_speed_m_s", "crash_tilt_rad"};
-const Names kInitialStateKeys = {"position_m",         "velocity_m_s",           "quaternion_wxyz",
-                                 "euler_rad",          "angular_velocity_rad_s", "rotor_speeds_rad_s",
+const Names kInitialStateKeys = {"position_m",  "velocity_m_s",           "quaternion_wxyz",
+                                 "euler_rad",   "angular_velocity_rad_s", "rotor_speeds_rad_s",
                                  "on_reference"};
 const Names kLogKeys = {"every_n_steps", "wrench_breakdown", "measured"};
 const Names kMetricsKeys = {"window_s"};
@@ -62,8 +61,8 @@ const Names kSegmentKeys = {"start_s", "rotor_speeds_rad_s"};
 const Names kIntegrators = {"rk4", "euler"};
 const Names kDrifts = {"per_sample", "continuous"};
 const Names kAllocations = {"exact", "thesis"};
-const Names kControllerInputKeys = {"type",       "controller",     "control_rate_hz",
-                                    "allocation", "real_time",      "reference"};
+const Names kControllerInputKeys = {"type",       "controller", "control_rate_hz",
+                                    "allocation", "real_time",  "reference"};
 const Names kReferenceTypes = {"setpoint", "thesis_pulse", "piecewise",
                                "circle",   "figure_eight", "waypoints"};
 const Names kSetpointKeys = {"type", "position_m", "yaw_rad"};
@@ -74,8 +73,8 @@ const Names kFigureEightKeys = {"type", "center_m", "amplitude_x_m", "amplitude_
 const Names kWaypointsKeys = {"type", "points"};
 const Names kWaypointKeys = {"time_s", "position_m", "yaw_rad"};
 // Keys that on_reference: true replaces (it sets the whole initial state).
-const Names kOnReferenceExcludes = {"position_m", "velocity_m_s", "quaternion_wxyz", "euler_rad",
-                                    "angular_velocity_rad_s", "rotor_speeds_rad_s"};
+const Names kOnReferenceExcludes = {"position_m", "velocity_m_s",           "quaternion_wxyz",
+                                    "euler_rad",  "angular_velocity_rad_s", "rotor_speeds_rad_s"};
 
 // ---- sections ---------------------------------------------------------------------------------
 
@@ -270,8 +269,7 @@ std::vector<TimedPoint> read_timed_points(const Reader& rd, const YAML::Node& li
               "expected a time after " + format_number(points.back().time_s) + " s (the " +
                   std::string(time_key) + " of " + item_path(path, i - 1) +
                   "; times must strictly increase), got " + t_node.Scalar());
-    const Vec3 pos =
-        rd.fixed<3>(p.required("position_m"), p.path("position_m"), "x, y, z in m");
+    const Vec3 pos = rd.fixed<3>(p.required("position_m"), p.path("position_m"), "x, y, z in m");
     points.push_back({t, pos, read_yaw(rd, p)});
   }
   return points;
@@ -309,8 +307,8 @@ std::pair<std::shared_ptr<const Reference>, std::string> read_reference(const Re
       const Map m = rd.map(node, path, kPiecewiseKeys, expected);
       std::vector<PiecewiseConstantReference::Segment> segments;
       for (const TimedPoint& p :
-           read_timed_points(rd, m.required("segments"), m.path("segments"),
-                             kPiecewiseSegmentKeys, "start_s", /*first_at_zero=*/true))
+           read_timed_points(rd, m.required("segments"), m.path("segments"), kPiecewiseSegmentKeys,
+                             "start_s", /*first_at_zero=*/true))
         segments.push_back({p.time_s, p.position_m, p.yaw_rad});
       ref = std::make_shared<const PiecewiseConstantReference>(std::move(segments));
       break;
@@ -327,17 +325,16 @@ std::pair<std::shared_ptr<const Reference>, std::string> read_reference(const Re
       // Defaults: thesis Eq. 3.25 (0.8 x 0.6 m, T = 60 s, centre (0, 0, 1.2)).
       const Map m = rd.map(node, path, kFigureEightKeys, expected);
       ref = std::make_shared<const FigureEightReference>(
-          center(m, Vec3(0, 0, 1.2)),
-          read_nonnegative(rd, m, "amplitude_x_m", 0.8, "an amplitude"),
+          center(m, Vec3(0, 0, 1.2)), read_nonnegative(rd, m, "amplitude_x_m", 0.8, "an amplitude"),
           read_nonnegative(rd, m, "amplitude_y_m", 0.6, "an amplitude"), period(m, 60.0));
       break;
     }
     default: {
       const Map m = rd.map(node, path, kWaypointsKeys, expected);
       std::vector<WaypointReference::Waypoint> points;
-      for (const TimedPoint& p : read_timed_points(rd, m.required("points"), m.path("points"),
-                                                   kWaypointKeys, "time_s",
-                                                   /*first_at_zero=*/false))
+      for (const TimedPoint& p :
+           read_timed_points(rd, m.required("points"), m.path("points"), kWaypointKeys, "time_s",
+                             /*first_at_zero=*/false))
         points.push_back({p.time_s, p.position_m, p.yaw_rad});
       ref = std::make_shared<const WaypointReference>(std::move(points));
       break;
@@ -401,9 +398,9 @@ MetricsSettings read_metrics(const Reader& rd, const YAML::Node& node, const std
     const YAML::Node w = m.get("window_s");
     const Eigen::Vector2d v = rd.fixed<2>(w, m.path("window_s"), "t0, t1 in s");
     if (!(v[0] >= 0.0 && v[1] > v[0]))
-      rd.fail(w, m.path("window_s"),
-              "expected 0 <= t0 < t1, got [" + format_number(v[0]) + ", " + format_number(v[1]) +
-                  "]");
+      rd.fail(
+          w, m.path("window_s"),
+          "expected 0 <= t0 < t1, got [" + format_number(v[0]) + ", " + format_number(v[1]) + "]");
     s.window_s = std::array<double, 2>{v[0], v[1]};
   }
   return s;

@@ -306,8 +306,8 @@ std::string summary_to_json(const RunSummary& s) {
         .num("control_rate_hz", c.control_rate_hz)
         .boolean("real_time", c.real_time)
         .raw("rmse", rmse.done())
-        .raw("rmse_window_s", "[" + json_number(c.rmse_window_s[0]) + ", " +
-                                  json_number(c.rmse_window_s[1]) + "]")
+        .raw("rmse_window_s",
+             "[" + json_number(c.rmse_window_s[0]) + ", " + json_number(c.rmse_window_s[1]) + "]")
         .integer("rmse_samples", c.rmse_samples)
         .integer("control_updates", c.control_updates)
         .integer("saturated_updates", c.saturated_updates)

@@ -177,8 +177,7 @@ std::string read_text_file(const std::string& path, const std::string& what) {
 Reader::Reader(std::string source, NonFinite non_finite)
     : source_(std::move(source)), non_finite_(non_finite) {}
 
-void Reader::fail(const YAML::Node& at, const std::string& path,
-                  const std::string& message) const {
+void Reader::fail(const YAML::Node& at, const std::string& path, const std::string& message) const {
   std::string text = source_ + ": ";
   if (!path.empty()) text += path + ": ";
   text += message;
@@ -264,8 +263,8 @@ std::size_t Reader::choice(const YAML::Node& node, const std::string& path, Name
   for (std::size_t i = 0; i < names.size(); ++i)
     if (names[i] == s) return i;
   fail(node, path,
-       "unknown " + what + " '" + s + "'" + did_you_mean(s, names) + " (valid: " +
-           name_list(names) + ")");
+       "unknown " + what + " '" + s + "'" + did_you_mean(s, names) +
+           " (valid: " + name_list(names) + ")");
 }
 
 std::vector<double> Reader::numbers(const YAML::Node& node, const std::string& path,
@@ -280,7 +279,10 @@ std::vector<double> Reader::numbers(const YAML::Node& node, const std::string& p
 
 Map::Map(const Reader& reader, YAML::Node node, std::string path,
          std::map<std::string, YAML::Node, std::less<>> entries)
-    : reader_(&reader), node_(std::move(node)), path_(std::move(path)), entries_(std::move(entries)) {}
+    : reader_(&reader),
+      node_(std::move(node)),
+      path_(std::move(path)),
+      entries_(std::move(entries)) {}
 
 YAML::Node Map::get(std::string_view key) const {
   const auto it = entries_.find(key);

@@ -116,9 +116,9 @@ VehicleModel::VehicleModel(VehicleSpec spec) : spec_(std::move(spec)) {
   require_finite(s, "body_drag_Ns_per_m", s.body_drag_Ns_per_m);
   // Drag may only dissipate energy: v^T A v >= 0 for all v, i.e. the symmetric part of A is
   // positive semi-definite.
-  const Vec3 drag_eig =
-      Eigen::SelfAdjointEigenSolver<Mat3>(0.5 * (s.body_drag_Ns_per_m + s.body_drag_Ns_per_m.transpose()))
-          .eigenvalues();
+  const Vec3 drag_eig = Eigen::SelfAdjointEigenSolver<Mat3>(
+                            0.5 * (s.body_drag_Ns_per_m + s.body_drag_Ns_per_m.transpose()))
+                            .eigenvalues();
   require(drag_eig.minCoeff() >= 0.0, where(s),
           ": body_drag_Ns_per_m: expected a dissipative (positive semi-definite) matrix, got "
           "eigenvalues [",
@@ -164,10 +164,11 @@ VehicleModel::VehicleModel(VehicleSpec spec) : spec_(std::move(spec)) {
   require(rank == 4, where(s),
           ": rotors: the allocation matrix (thrust and three moments per unit rotor thrust) has "
           "rank ",
-          rank, ", expected 4; these rotors cannot produce independent thrust, roll, pitch and yaw");
-  allocation_pinv_ = Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>(
-                         Eigen::MatrixXd(allocation_))
-                         .pseudoInverse();
+          rank,
+          ", expected 4; these rotors cannot produce independent thrust, roll, pitch and yaw");
+  allocation_pinv_ =
+      Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>(Eigen::MatrixXd(allocation_))
+          .pseudoInverse();
   const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod_w{Eigen::MatrixXd(wrench_)};
   wrench_pinv_ = cod_w.pseudoInverse();
   wrench_rank_ = static_cast<int>(cod_w.rank());

@@ -31,9 +31,9 @@ void validate(const SimConfig& c) {
   for (int k = 0; k < 4; ++k) {
     const auto& th = p.theta[static_cast<std::size_t>(k)];
     const auto& sg = p.sigma[static_cast<std::size_t>(k)];
-    require(std::isfinite(th.a) && std::isfinite(th.b) && std::isfinite(sg.a) &&
-                std::isfinite(sg.b),
-            "simulation config: noise.", kBlockNames[k], ": expected finite theta and sigma");
+    require(
+        std::isfinite(th.a) && std::isfinite(th.b) && std::isfinite(sg.a) && std::isfinite(sg.b),
+        "simulation config: noise.", kBlockNames[k], ": expected finite theta and sigma");
     // The per-step map is I - s Theta; its eigenvalues are 1 - s a and 1 - s (a + N b).
     // The process is stable (has a stationary distribution) when both lie in (-1, 1).
     const double e1 = 1.0 - drift_scale * th.a;
@@ -43,7 +43,8 @@ void validate(const SimConfig& c) {
             " must lie in (-1, 1))");
   }
   require(std::isfinite(c.ground.crash_speed_m_s) && c.ground.crash_speed_m_s > 0.0,
-          "simulation config: ground.crash_speed_m_s: expected > 0, got ", c.ground.crash_speed_m_s);
+          "simulation config: ground.crash_speed_m_s: expected > 0, got ",
+          c.ground.crash_speed_m_s);
   require(std::isfinite(c.ground.crash_tilt_rad) && c.ground.crash_tilt_rad > 0.0,
           "simulation config: ground.crash_tilt_rad: expected > 0, got ", c.ground.crash_tilt_rad);
   require(c.divergence.max_position_m > 0.0 && c.divergence.max_speed_m_s > 0.0 &&
@@ -176,9 +177,9 @@ StepStatus Simulator::check_state(const StateVector& x, std::string& message) co
   if (p2 > lim.max_position_m * lim.max_position_m || v2 > lim.max_speed_m_s * lim.max_speed_m_s ||
       w2 > lim.max_angular_speed_rad_s * lim.max_angular_speed_rad_s) {
     const double p = std::sqrt(p2), v = std::sqrt(v2), w = std::sqrt(w2);
-    message = detail::concat("state diverged at t = ", data_.time_s + config_.dt_s,
-                             " s: |p| = ", p, " m (limit ", lim.max_position_m, "), |v| = ", v,
-                             " m/s (limit ", lim.max_speed_m_s, "), |w| = ", w, " rad/s (limit ",
+    message = detail::concat("state diverged at t = ", data_.time_s + config_.dt_s, " s: |p| = ", p,
+                             " m (limit ", lim.max_position_m, "), |v| = ", v, " m/s (limit ",
+                             lim.max_speed_m_s, "), |w| = ", w, " rad/s (limit ",
                              lim.max_angular_speed_rad_s, ")");
     return StepStatus::kDiverged;
   }
@@ -233,7 +234,6 @@ StepResult Simulator::step(std::int64_t n) {
   }
   return total;
 }
-
 
 StateVector Simulator::state_derivative() const {
   return dronetwin::state_derivative<double>(*model_, config_.disturbances, config_.environment,

@@ -165,7 +165,8 @@ TEST(NmpcHorizon, ChainedJacobianMatchesCentralDifferences) {
   c.calculate_u(tilted_input(0.0));  // sets x_0 and the references of the problem
   std::vector<double> z = c.last_parameters();
   // Move away from the optimum so every residual has slope.
-  for (std::size_t i = 0; i < z.size(); ++i) z[i] += (i % 6 == 0 ? 0.3 : 0.02) * std::sin(1.0 + static_cast<double>(i));
+  for (std::size_t i = 0; i < z.size(); ++i)
+    z[i] += (i % 6 == 0 ? 0.3 : 0.02) * std::sin(1.0 + static_cast<double>(i));
   Eigen::VectorXd r;
   Eigen::MatrixXd J;
   ASSERT_TRUE(c.evaluate_horizon(z, &r, &J));
@@ -380,8 +381,8 @@ TEST(NmpcConfig, ShippedFileIsTheThesisProblem) {
   EXPECT_EQ(o.state_weights[6], 0.1);
   EXPECT_EQ(o.input_weights[0], 0.3);
   EXPECT_EQ(o.input_weights[3], 0.03);
-  const auto c = load_controller(test::source_path("config/controllers/nmpc.yaml"), qdrone(),
-                                 1000.0);
+  const auto c =
+      load_controller(test::source_path("config/controllers/nmpc.yaml"), qdrone(), 1000.0);
   EXPECT_EQ(c->name(), "nmpc");
   EXPECT_EQ(dynamic_cast<const NmpcController&>(*c).calls_per_solve(), 10);
 }

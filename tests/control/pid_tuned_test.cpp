@@ -54,9 +54,9 @@ struct TunedRun {
 };
 
 TunedRun fly(const Reference& reference, const StateVector& start, bool rotors_at_hover,
-        double duration_s, bool noise) {
+             double duration_s, bool noise) {
   const auto model = test::load_model("qdrone2");
-  SimConfig cfg;  // 1 ms physics step, RK4, every disturbance term, ground contact
+  SimConfig cfg;              // 1 ms physics step, RK4, every disturbance term, ground contact
   cfg.noise.enabled = noise;  // thesis OU parameters (Eq. 3.8-3.9)
   cfg.seed = 1;
   Simulator sim(model, cfg);
@@ -123,8 +123,8 @@ TEST(PidTuned, FliesTheThesisPulseFromTheGround) {
     SCOPED_TRACE(noise ? "OU noise on, seed 1" : "noise off");
     const TunedRun r =
         fly(pulse, Simulator::hover_state(Vec3::Zero()), /*rotors_at_hover=*/false, 60.0, noise);
-    ASSERT_FALSE(r.failed()) << status_name(r.status) << ", crashed " << r.crashed << " at t = "
-                             << r.end_s;
+    ASSERT_FALSE(r.failed()) << status_name(r.status) << ", crashed " << r.crashed
+                             << " at t = " << r.end_s;
     EXPECT_DOUBLE_EQ(r.end_s, 60.0);
     EXPECT_LE(r.rmse[0], x_bound);
     EXPECT_LE(r.rmse[1], kThesisRmseY);

@@ -28,7 +28,7 @@ TEST(Reference, ThesisPulseFollowsEq314) {
   const auto pulse = PiecewiseConstantReference::thesis_pulse();
   const struct {
     double t, x, z;
-  } expected[] = {{0, 0, 0},        {21.999, 0, 0},     {22, 0, 0.75},   {29.9, 0, 0.75},
+  } expected[] = {{0, 0, 0},         {21.999, 0, 0},      {22, 0, 0.75},    {29.9, 0, 0.75},
                   {30, -0.75, 0.75}, {34.9, -0.75, 0.75}, {35, 0.75, 0.75}, {44.9, 0.75, 0.75},
                   {45, -0.75, 0.75}, {49.9, -0.75, 0.75}, {50, 0, 0.75},    {60, 0, 0.75}};
   for (const auto& e : expected) {
@@ -67,12 +67,11 @@ TEST(Reference, FigureEightFollowsEq325) {
 }
 
 TEST(Reference, WaypointsAreSmoothAndHitEveryPoint) {
-  const WaypointReference wp({{0.0, Vec3(0, 0, 0), 0.0},
-                              {2.0, Vec3(1, 0, 1), 0.5},
-                              {5.0, Vec3(1, 2, 1), -0.5}});
+  const WaypointReference wp(
+      {{0.0, Vec3(0, 0, 0), 0.0}, {2.0, Vec3(1, 0, 1), 0.5}, {5.0, Vec3(1, 2, 1), -0.5}});
   EXPECT_EQ(wp.at(2.0).position_m, Vec3(1, 0, 1));
   EXPECT_EQ(wp.at(9.0).position_m, Vec3(1, 2, 1));
-  EXPECT_EQ(wp.at(2.0).velocity_m_s.norm(), 0.0);  // each segment starts and ends at rest
+  EXPECT_EQ(wp.at(2.0).velocity_m_s.norm(), 0.0);      // each segment starts and ends at rest
   EXPECT_NEAR(wp.at(1.0).position_m.x(), 0.5, 1e-15);  // minimum-jerk midpoint
   expect_consistent_derivatives(wp, 0.05, 4.95);
 }

@@ -18,7 +18,7 @@ TEST_P(HeldRotorWrenchTest, MatchesTheTermByTermModel) {
   Random rng(7);
   Environment env;
   for (int mask = 0; mask < 64; ++mask) {
-    DisturbanceSwitches sw{(mask & 1) != 0, (mask & 2) != 0, (mask & 4) != 0,
+    DisturbanceSwitches sw{(mask & 1) != 0, (mask & 2) != 0,  (mask & 4) != 0,
                            (mask & 8) != 0, (mask & 16) != 0, (mask & 32) != 0};
     HeldRotorWrench held;
     held.configure(*model, sw);

@@ -35,7 +35,7 @@ class RotorTermsTest : public ::testing::Test {
     // Level attitude, so body and world axes coincide and the hand calculation stays readable.
     x = StateVector::Zero();
     x.segment<3>(0) << 0.3, -0.2, 0.5;
-    x.segment<3>(3) << 2.0, -1.0, 0.5;  // v_W
+    x.segment<3>(3) << 2.0, -1.0, 0.5;   // v_W
     x[6] = 1.0;                          // q = identity
     x.segment<3>(10) << 0.3, -0.2, 0.5;  // w_B
     env.wind_W_m_s << 0.5, 0.0, 0.0;

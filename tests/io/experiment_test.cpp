@@ -10,8 +10,8 @@
 
 #include <cmath>
 #include <filesystem>
-#include <numbers>
 #include <fstream>
+#include <numbers>
 #include <set>
 #include <sstream>
 #include <string>
@@ -341,12 +341,12 @@ TEST(ExperimentController, EveryReferenceType) {
 
   in = parse_loop(
       "{type: piecewise, segments: [{start_s: 0, position_m: [0, 0, 1]},"
-      " {start_s: 2.5, position_m: [1, 0, 1], yaw_rad: 0.5}, {start_s: 4, position_m: [1, 1, 2]}]}");
+      " {start_s: 2.5, position_m: [1, 0, 1], yaw_rad: 0.5}, {start_s: 4, position_m: [1, 1, "
+      "2]}]}");
   EXPECT_EQ(in.reference_type, "piecewise");
-  expect_same_reference(*in.reference,
-                        PiecewiseConstantReference({{0.0, Vec3(0, 0, 1), 0.0},
-                                                    {2.5, Vec3(1, 0, 1), 0.5},
-                                                    {4.0, Vec3(1, 1, 2), 0.0}}));
+  expect_same_reference(*in.reference, PiecewiseConstantReference({{0.0, Vec3(0, 0, 1), 0.0},
+                                                                   {2.5, Vec3(1, 0, 1), 0.5},
+                                                                   {4.0, Vec3(1, 1, 2), 0.0}}));
 
   in = parse_loop("{type: circle}");  // defaults: Eq. 3.28
   EXPECT_EQ(in.reference_type, "circle");
@@ -365,7 +365,8 @@ TEST(ExperimentController, EveryReferenceType) {
 
   in = parse_loop(
       "{type: waypoints, points: [{time_s: 0, position_m: [0, 0, 1]},"
-      " {time_s: 3, position_m: [2, 0, 1], yaw_rad: 1.0}, {time_s: 5.5, position_m: [2, 2, 1.5]}]}");
+      " {time_s: 3, position_m: [2, 0, 1], yaw_rad: 1.0}, {time_s: 5.5, position_m: [2, 2, "
+      "1.5]}]}");
   EXPECT_EQ(in.reference_type, "waypoints");
   expect_same_reference(*in.reference, WaypointReference({{0.0, Vec3(0, 0, 1), 0.0},
                                                           {3.0, Vec3(2, 0, 1), 1.0},
@@ -400,10 +401,9 @@ TEST(ExperimentController, ControllerPathIsRelativeToTheExperimentFileFirst) {
 }
 
 TEST(ExperimentController, OnReferenceStartsOnTheReferenceAtHover) {
-  const Experiment e = parse_experiment(
-      minimal("initial_state: {on_reference: true}\n",
-              controller_input("{type: circle, yaw_rad: 0.5}")),
-      "on.yaml");
+  const Experiment e = parse_experiment(minimal("initial_state: {on_reference: true}\n",
+                                                controller_input("{type: circle, yaw_rad: 0.5}")),
+                                        "on.yaml");
   EXPECT_TRUE(e.initial_state.on_reference);
   // Eq. 3.28 at t = 0: p = (2, 0, 1), v = (0, 2 pi r / T, 0).
   EXPECT_EQ(e.initial_state.position_m, Vec3(2, 0, 1));
@@ -414,18 +414,17 @@ TEST(ExperimentController, OnReferenceStartsOnTheReferenceAtHover) {
   EXPECT_EQ(e.initial_state.angular_velocity_rad_s, Vec3::Zero());
   EXPECT_EQ(e.initial_state.rotor_speeds.kind, RotorSpeedSetting::Kind::kHover);
 
-  const Experiment off = parse_experiment(
-      minimal("initial_state: {on_reference: false, position_m: [0, 0, 0.5]}\n",
-              controller_input("{type: circle}")),
-      "off.yaml");
+  const Experiment off =
+      parse_experiment(minimal("initial_state: {on_reference: false, position_m: [0, 0, 0.5]}\n",
+                               controller_input("{type: circle}")),
+                       "off.yaml");
   EXPECT_FALSE(off.initial_state.on_reference);
   EXPECT_EQ(off.initial_state.position_m, Vec3(0, 0, 0.5));
 }
 
 TEST(ExperimentController, MetricsWindow) {
-  const Experiment e =
-      parse_experiment(minimal("metrics: {window_s: [5, 30.5]}\n", controller_input("{type: circle}")),
-                       "m.yaml");
+  const Experiment e = parse_experiment(
+      minimal("metrics: {window_s: [5, 30.5]}\n", controller_input("{type: circle}")), "m.yaml");
   ASSERT_TRUE(e.metrics.window_s.has_value());
   EXPECT_EQ((*e.metrics.window_s)[0], 5.0);
   EXPECT_EQ((*e.metrics.window_s)[1], 30.5);
@@ -470,9 +469,8 @@ TEST(ExperimentController, ShippedClosedLoopExperiments) {
 }
 
 TEST(ExperimentController, ValidateRechecksTheControlRate) {
-  Experiment e = parse_experiment(minimal("", controller_input("{type: circle}",
-                                                               "  control_rate_hz: 500\n")),
-                                  "r.yaml");
+  Experiment e = parse_experiment(
+      minimal("", controller_input("{type: circle}", "  control_rate_hz: 500\n")), "r.yaml");
   EXPECT_NO_THROW(validate(e));
   e.physics_dt_s = 0.003;  // 333.3 Hz physics: 500 Hz control is faster than physics
   const std::string m = error_of([&] { validate(e); });
@@ -484,20 +482,21 @@ TEST(ExperimentController, ValidateRechecksTheControlRate) {
 TEST(ExperimentController, InlineDefectsNameTheirFields) {
   const auto msg = [](const std::string& reference, const std::string& extra = "",
                       const std::string& top = "") {
-    return error_of(
-        [&] { (void)parse_experiment(minimal(top, controller_input(reference, extra)), "i.yaml"); });
+    return error_of([&] {
+      (void)parse_experiment(minimal(top, controller_input(reference, extra)), "i.yaml");
+    });
   };
   const auto has = [](const std::string& m, const std::string& s) {
     EXPECT_NE(m.find(s), std::string::npos) << "missing '" << s << "' in: " << m;
   };
   has(error_of([] {
-        (void)parse_experiment(
-            minimal("", "input: {type: controller, controller: " + kPid + "}\n"), "i.yaml");
+        (void)parse_experiment(minimal("", "input: {type: controller, controller: " + kPid + "}\n"),
+                               "i.yaml");
       }),
       "i.yaml: input: missing required key 'reference'");
   has(error_of([] {
-        (void)parse_experiment(minimal("", "input: {type: controller, reference: {type: circle}}\n"),
-                               "i.yaml");
+        (void)parse_experiment(
+            minimal("", "input: {type: controller, reference: {type: circle}}\n"), "i.yaml");
       }),
       "input: missing required key 'controller'");
   has(msg("{type: circle}", "  controler_rate_hz: 100\n"),
@@ -522,7 +521,8 @@ TEST(ExperimentController, InlineDefectsNameTheirFields) {
   has(msg("{type: figure_eight, amplitude_x_m: -1}"),
       "input.reference.amplitude_x_m: expected an amplitude >= 0");
   has(msg("{type: figure_eight, period_s: 0}"), "input.reference.period_s: expected a number > 0");
-  has(msg("{type: piecewise, segments: []}"), "input.reference.segments: expected a non-empty list");
+  has(msg("{type: piecewise, segments: []}"),
+      "input.reference.segments: expected a non-empty list");
   has(msg("{type: piecewise, segments: [{start_s: 1, position_m: [0, 0, 1]}]}"),
       "input.reference.segments[0].start_s: expected 0");
   has(msg("{type: piecewise, segments: [{start_s: 0, position_m: [0, 0, 1]}, "
@@ -546,9 +546,7 @@ TEST(ExperimentController, InlineDefectsNameTheirFields) {
       "metrics.window_s: expected 2 numbers (t0, t1 in s), got 1");
   has(msg("{type: circle}", "", "metrics: {window: [0, 1]}\n"),
       "metrics: unknown key 'window'; did you mean 'window_s'?");
-  has(error_of([] {
-        (void)parse_experiment(minimal("metrics: {window_s: [0, 1]}\n"), "i.yaml");
-      }),
+  has(error_of([] { (void)parse_experiment(minimal("metrics: {window_s: [0, 1]}\n"), "i.yaml"); }),
       "i.yaml: metrics: only for input type 'controller'");
 
   // on_reference

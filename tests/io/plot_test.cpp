@@ -21,8 +21,10 @@ TEST(PlotCommand, WritesFiguresForARun) {
   const fs::path dir = fs::temp_directory_path() / "dronetwin_plot_test";
   fs::remove_all(dir);
   const std::string cli = DRONETWIN_CLI_PATH;
-  ASSERT_EQ(0, run(cli + " run " DRONETWIN_SOURCE_DIR "/config/experiments/step_open_loop.yaml --quiet --out " +
-                   dir.string()));
+  ASSERT_EQ(
+      0, run(cli +
+             " run " DRONETWIN_SOURCE_DIR "/config/experiments/step_open_loop.yaml --quiet --out " +
+             dir.string()));
   ASSERT_EQ(0, run(cli + " plot " + dir.string()));
   for (const char* png : {"tracking.png", "rotors.png", "path3d.png"}) {
     ASSERT_TRUE(fs::exists(dir / png)) << png;

@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "dronetwin/core/error.hpp"
 #include "dronetwin/control/reference.hpp"
+#include "dronetwin/core/error.hpp"
 #include "dronetwin/io/csv_log.hpp"
 #include "dronetwin/io/model_loader.hpp"
 
@@ -208,9 +208,11 @@ duration_s: 1.0
 seed: 4
 noise: true
 initial_state: {position_m: [0, 0, 1], rotor_speeds_rad_s: hover}
-)" + extra + R"(input:
+)" + extra +
+         R"(input:
   type: controller
-  controller: )" + kPid + "\n" + input_extra + R"(
+  controller: )" +
+         kPid + "\n" + input_extra + R"(
   reference: {type: setpoint, position_m: [0.1, -0.05, 1.2], yaw_rad: 0.1}
 )";
 }
@@ -262,8 +264,8 @@ TEST_F(RunExperiment, ClosedLoopLogHasTheControllerColumns) {
   ASSERT_EQ(log.columns.size(), open_loop.size() + 9);
   for (std::size_t i = 0; i < open_loop.size(); ++i) EXPECT_EQ(log.columns[i], open_loop[i]);
   const std::vector<std::string> added(log.columns.end() - 9, log.columns.end());
-  EXPECT_EQ(added, (std::vector<std::string>{"ref_x", "ref_y", "ref_z", "ref_yaw", "u_T",
-                                             "u_tau_x", "u_tau_y", "u_tau_z", "saturated"}));
+  EXPECT_EQ(added, (std::vector<std::string>{"ref_x", "ref_y", "ref_z", "ref_yaw", "u_T", "u_tau_x",
+                                             "u_tau_y", "u_tau_z", "saturated"}));
   EXPECT_EQ(log.columns, log_column_names({4, true, false, true}));
   ASSERT_EQ(log.rows(), 1001u);
   for (std::size_t i = 0; i < log.rows(); i += 100) {
@@ -357,10 +359,10 @@ TEST_F(RunExperiment, ClosedLoopSummaryFields) {
 
   const std::string json = read_all(s.summary_path);
   EXPECT_EQ(json, summary_to_json(s));
-  for (const char* key : {"controller", "name", "path", "allocation", "reference_type",
-                          "reference", "control_rate_hz", "real_time", "rmse", "x", "y", "z",
-                          "yaw", "rmse_window_s", "rmse_samples", "control_updates",
-                          "saturated_updates", "saturated_fraction", "real_time_factor"}) {
+  for (const char* key : {"controller", "name", "path", "allocation", "reference_type", "reference",
+                          "control_rate_hz", "real_time", "rmse", "x", "y", "z", "yaw",
+                          "rmse_window_s", "rmse_samples", "control_updates", "saturated_updates",
+                          "saturated_fraction", "real_time_factor"}) {
     std::string quoted = "\"";
     quoted.append(key).append("\": ");
     EXPECT_NE(json.find(quoted), std::string::npos) << key;
@@ -371,8 +373,7 @@ TEST_F(RunExperiment, ClosedLoopSummaryFields) {
   EXPECT_EQ(json_number(json, "saturated_updates"), static_cast<double>(c.saturated_updates));
 
   // The saturation counters count: a setpoint 5 m up saturates the allocation at first.
-  const RunSummary far = run_experiment(
-      experiment(R"(
+  const RunSummary far = run_experiment(experiment(R"(
 duration_s: 0.2
 initial_state: {position_m: [0, 0, 1], rotor_speeds_rad_s: hover}
 input:
@@ -380,7 +381,7 @@ input:
   controller: )" + kPid + R"(
   reference: {type: setpoint, position_m: [0, 0, 6]}
 )"),
-      (dir_ / "far").string());
+                                        (dir_ / "far").string());
   ASSERT_TRUE(far.ok()) << far.failure_message;
   EXPECT_GT(far.closed_loop->saturated_updates, 0);
   const LogTable log = read_csv_log(far.log_path);
@@ -414,8 +415,7 @@ input:
 }
 
 TEST_F(RunExperiment, RealTimeClosedLoopIsPaced) {
-  const RunSummary s = run_experiment(
-      experiment(R"(
+  const RunSummary s = run_experiment(experiment(R"(
 duration_s: 0.2
 initial_state: {position_m: [0, 0, 1], rotor_speeds_rad_s: hover}
 log: {measured: false}
@@ -425,7 +425,7 @@ input:
   real_time: true
   reference: {type: setpoint, position_m: [0, 0, 1]}
 )"),
-      out());
+                                      out());
   ASSERT_TRUE(s.ok());
   EXPECT_TRUE(s.closed_loop->real_time);
   EXPECT_GE(s.wall_clock_s, 0.2 - 1e-3);

@@ -33,7 +33,7 @@ TEST(Allocation, SaturationKeepsThrustAndScalesMomentsUniformly) {
   EXPECT_GT(r.moment_scale, 0.0);
   EXPECT_LT(r.moment_scale, 1.0);
   EXPECT_NEAR(r.achieved[0], u[0], 1e-9);  // thrust kept
-  for (int k = 1; k < 4; ++k)               // moment direction kept, magnitude scaled
+  for (int k = 1; k < 4; ++k)              // moment direction kept, magnitude scaled
     EXPECT_NEAR(r.achieved[k], r.moment_scale * u[k], 1e-9);
   // At the limit: some rotor sits at a speed bound.
   bool at_bound = false;
@@ -54,12 +54,12 @@ TEST(Allocation, ThrustBeyondTheRotorsIsClipped) {
 TEST(Allocation, ThesisAllocationOverThrustsAtHover) {
   // Eq. 2.31 drops 'K2 w + 'K3: w = sqrt(mg / (4 'K1)) and the real thrust is larger.
   const auto model = test::load_model("qdrone2");
-  const RotorVector w = allocate_speeds(*model, GeneralizedForce(kMg, 0, 0, 0),
-                                        AllocationMethod::kThesis);
+  const RotorVector w =
+      allocate_speeds(*model, GeneralizedForce(kMg, 0, 0, 0), AllocationMethod::kThesis);
   const double w_expected = std::sqrt(kMg / 4 / 1.9533e-6);
   EXPECT_NEAR(w[0], w_expected, 1e-9);
-  const double real_thrust = 4 * (1.9533e-6 * w_expected * w_expected + 8.594e-4 * w_expected -
-                                  0.0121);
+  const double real_thrust =
+      4 * (1.9533e-6 * w_expected * w_expected + 8.594e-4 * w_expected - 0.0121);
   EXPECT_GT(real_thrust / kMg, 1.30);  // notes #38: about 32 % above the command
   EXPECT_LT(real_thrust / kMg, 1.34);
   EXPECT_NEAR(w_expected, 1374.2, 0.5);

@@ -88,9 +88,9 @@ Mat closed_form_stationary_covariance(const OuParameters& p, double dt) {
 
 // Theoretical second-order structure of the stationary process.
 struct Theory {
-  Mat stationary;            // P
-  std::vector<Mat> gamma;    // gamma[h] = A^h P, h = 0 .. until negligible (+ max lag)
-  Mat long_run;              // sum over all h of Gamma(h): n Var(sample mean) -> long_run
+  Mat stationary;          // P
+  std::vector<Mat> gamma;  // gamma[h] = A^h P, h = 0 .. until negligible (+ max lag)
+  Mat long_run;            // sum over all h of Gamma(h): n Var(sample mean) -> long_run
 };
 
 Theory theory_for(const DiscreteOu& d, int max_lag) {
@@ -270,8 +270,8 @@ TEST(OuParametersTest, ThesisValuesMatchEq38And39) {
 
 TEST(OuBlockMatrixTest, MatchesBlockDefinition) {
   // B_N(a, b) = a I + b 1 1^T per block, blocks p(0-2), v(3-5), q(6-9), w(10-12).
-  const std::array<BlockCoefficients, 4> blocks{{{1.0, 10.0}, {2.0, 20.0}, {3.0, 30.0},
-                                                 {4.0, 40.0}}};
+  const std::array<BlockCoefficients, 4> blocks{
+      {{1.0, 10.0}, {2.0, 20.0}, {3.0, 30.0}, {4.0, 40.0}}};
   const Mat m = ou_block_matrix(blocks);
   auto block_of = [](int i) { return i < 3 ? 0 : i < 6 ? 1 : i < 10 ? 2 : 3; };
   for (int i = 0; i < kStateSize; ++i) {
@@ -370,8 +370,7 @@ TEST(OrnsteinUhlenbeckTest, LaggedAutocovarianceMatchesPowersOfA) {
       Mat a_m = Mat::Identity();
       for (int k = 0; k < m; ++k) a_m = r.d.a * a_m;
       expect_within_5_se(r.stats.lagged[l], a_m * r.theory.stationary,
-                         lagged_covariance_se(r.theory, m, r.stats.n),
-                         "lag " + std::to_string(m));
+                         lagged_covariance_se(r.theory, m, r.stats.n), "lag " + std::to_string(m));
     }
   }
 }
@@ -417,8 +416,7 @@ TEST(OrnsteinUhlenbeckTest, ResetZeroesTheState) {
   for (int k = 0; k < 20; ++k) {
     ou.step(rng);
     fresh.step(rng_fresh);
-    ASSERT_EQ(std::memcmp(ou.value().data(), fresh.value().data(), sizeof(double) * kStateSize),
-              0)
+    ASSERT_EQ(std::memcmp(ou.value().data(), fresh.value().data(), sizeof(double) * kStateSize), 0)
         << "step " << k;
   }
   EXPECT_EQ(ou.parameters().theta[0].a, params.theta[0].a);  // reset keeps the parameters

@@ -65,12 +65,12 @@ double ks_statistic(std::vector<double>& x, Cdf cdf) {
 // Sanity anchor: splitmix64 started at 0 yields 0xe220a8397b1dcdaf first, the well-known value.
 // If this test fails, the generator changed and every stored seed now means something else.
 TEST(RandomTest, FirstOutputsMatchReferenceXoshiro256PlusPlus) {
-  constexpr std::array<std::uint64_t, 6> kSeed0{
-      0x53175d61490b23dfULL, 0x61da6f3dc380d507ULL, 0x5c0fdf91ec9a7bfcULL,
-      0x02eebf8c3bbe5e1aULL, 0x7eca04ebaf4a5eeaULL, 0x0543c37757f08d9aULL};
-  constexpr std::array<std::uint64_t, 6> kSeed42{
-      0xd0764d4f4476689fULL, 0x519e4174576f3791ULL, 0xfbe07cfb0c24ed8cULL,
-      0xb37d9f600cd835b8ULL, 0xcb231c3874846a73ULL, 0x968d9f004e50de7dULL};
+  constexpr std::array<std::uint64_t, 6> kSeed0{0x53175d61490b23dfULL, 0x61da6f3dc380d507ULL,
+                                                0x5c0fdf91ec9a7bfcULL, 0x02eebf8c3bbe5e1aULL,
+                                                0x7eca04ebaf4a5eeaULL, 0x0543c37757f08d9aULL};
+  constexpr std::array<std::uint64_t, 6> kSeed42{0xd0764d4f4476689fULL, 0x519e4174576f3791ULL,
+                                                 0xfbe07cfb0c24ed8cULL, 0xb37d9f600cd835b8ULL,
+                                                 0xcb231c3874846a73ULL, 0x968d9f004e50de7dULL};
   Random zero(0);
   for (std::size_t i = 0; i < kSeed0.size(); ++i) {
     EXPECT_EQ(zero.next_u64(), kSeed0[i]) << "seed 0, output " << i;
@@ -260,10 +260,10 @@ TEST(RandomTest, NormalTailProbabilitiesMatchExactTail) {
     EXPECT_NEAR(static_cast<double>(count) / n, p, 5.0 * se)
         << what << ": count " << count << ", expected " << p * n;
   };
-  check(beyond3, 2.0 * normal_upper_tail(3.0), "P(|X| > 3)");         // 2.69980e-3
-  check(above_r, normal_upper_tail(kZigguratR), "P(X > R)");          // 2.88054e-4
-  check(below_minus_r, normal_upper_tail(kZigguratR), "P(X < -R)");   // symmetric
-  check(above4, normal_upper_tail(4.0), "P(X > 4)");                  // 3.16712e-5
+  check(beyond3, 2.0 * normal_upper_tail(3.0), "P(|X| > 3)");        // 2.69980e-3
+  check(above_r, normal_upper_tail(kZigguratR), "P(X > R)");         // 2.88054e-4
+  check(below_minus_r, normal_upper_tail(kZigguratR), "P(X < -R)");  // symmetric
+  check(above4, normal_upper_tail(4.0), "P(X > 4)");                 // 3.16712e-5
 }
 
 // The tail sampler alone: the samples with |X| > R must follow the normal distribution
@@ -282,8 +282,7 @@ TEST(RandomTest, NormalTailShapeBeyondBaseLayer) {
   // the precise rate is tested above.
   ASSERT_GT(tail.size(), 10'000u);
   const double q_r = normal_upper_tail(kZigguratR);
-  const double d =
-      ks_statistic(tail, [q_r](double v) { return 1.0 - normal_upper_tail(v) / q_r; });
+  const double d = ks_statistic(tail, [q_r](double v) { return 1.0 - normal_upper_tail(v) / q_r; });
   EXPECT_LT(std::sqrt(static_cast<double>(tail.size())) * d, kKsCritical001)
       << "D_n = " << d << " over " << tail.size() << " tail samples";
 }

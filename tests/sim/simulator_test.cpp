@@ -14,8 +14,8 @@
 namespace dronetwin {
 namespace {
 
-constexpr double kMass = 1.504;   // thesis Table 2.1
-constexpr double kK3 = -0.0121;   // thrust at w = 0, thesis Eq. 2.22
+constexpr double kMass = 1.504;  // thesis Table 2.1
+constexpr double kK3 = -0.0121;  // thrust at w = 0, thesis Eq. 2.22
 
 Simulator hovering(SimConfig cfg, double z) {
   const auto model = test::load_model("qdrone2");
@@ -164,12 +164,13 @@ TEST(Simulator, RejectsNonFiniteAndMisSizedInputs) {
   ref[2] = INFINITY;
   EXPECT_NE(error_of([&] { sim.set_rotor_speed_reference(ref); }).find("finite"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { sim.set_rotor_speed_reference(RotorVector::Zero(3)); })
-                .find("expected 4 values"),
+  EXPECT_NE(error_of([&] {
+              sim.set_rotor_speed_reference(RotorVector::Zero(3));
+            }).find("expected 4 values"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { sim.set_generalized_force(Vec4(14.0, 0.0, -INFINITY, 0.0)); })
-                .find("[2]"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of([&] { sim.set_generalized_force(Vec4(14.0, 0.0, -INFINITY, 0.0)); }).find("[2]"),
+      std::string::npos);
   StateVector x = sim.state();
   x[4] = std::nan("");
   EXPECT_NE(error_of([&] { sim.set_state(x); }).find("state[4]"), std::string::npos);

@@ -11,7 +11,8 @@
 //    public:
 //     using ControllerBase::ControllerBase;
 //     std::string_view name() const override { return "hover"; }
-//     std::unique_ptr<ControllerBase> clone() const override { return std::make_unique<Hover>(*this); }
+//     std::unique_ptr<ControllerBase> clone() const override { return
+//     std::make_unique<Hover>(*this); }
 //    protected:
 //     GeneralizedForce do_calculate_u(const ControlInput& in) override { ... }
 //   };

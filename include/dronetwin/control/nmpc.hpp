@@ -32,8 +32,8 @@
 // Failures: a solve that ends in failure, returns a non-finite plan, or is rejected by the
 // failure-injection hook does not fly. The controller then follows the last good plan, shifted
 // by the solves since it was made, while it lasts (N - 1 intervals), then SE(3) position control
-// with the position gains of `se3`; diagnostics() and last_solve() report it. A solve that stops at the
-// iteration cap or the time budget keeps its best iterate (Ceres never returns a worse one).
+// with the position gains of `se3`; diagnostics() and last_solve() report it. A solve that stops at
+// the iteration cap or the time budget keeps its best iterate (Ceres never returns a worse one).
 //
 // Trap: with a finite max_solve_time_s a run is reproducible only as long as the budget never
 // triggers; the default (no budget, max_iterations capped) keeps runs bitwise reproducible.
@@ -74,9 +74,9 @@ struct NmpcOptions {
   /// predicted state (single shooting cannot bound states; the command has a hard cone too).
   double tilt_penalty_weight = 100.0;
 
-  double min_thrust_N = 2.0;    ///< lower bound on |F| (via F_z), keeps b3d defined
-  double max_thrust_N = 30.0;   ///< upper bound on |F|
-  double max_tilt_rad = 0.5;    ///< bound on the angle between F and +z
+  double min_thrust_N = 2.0;                 ///< lower bound on |F| (via F_z), keeps b3d defined
+  double max_thrust_N = 30.0;                ///< upper bound on |F|
+  double max_tilt_rad = 0.5;                 ///< bound on the angle between F and +z
   Vec3 max_moment_Nm = Vec3::Constant(1.0);  ///< bound on |M_i| in the prediction
 
   /// Offset-free MPC: each solve updates a constant disturbance acceleration d (added to v_dot
@@ -104,10 +104,10 @@ struct NmpcOptions {
 };
 
 enum class NmpcTermination {
-  kNotRun,         ///< no solve yet
-  kConverged,      ///< Ceres CONVERGENCE
-  kIterationCap,   ///< Ceres NO_CONVERGENCE: iteration cap or time budget; best iterate kept
-  kFailure,        ///< Ceres FAILURE / USER_FAILURE, a non-finite plan, or an injected failure
+  kNotRun,        ///< no solve yet
+  kConverged,     ///< Ceres CONVERGENCE
+  kIterationCap,  ///< Ceres NO_CONVERGENCE: iteration cap or time budget; best iterate kept
+  kFailure,       ///< Ceres FAILURE / USER_FAILURE, a non-finite plan, or an injected failure
 };
 std::string_view termination_name(NmpcTermination t);
 

@@ -8,8 +8,9 @@
 //   ground effect                               -> sum_i (C_G T_i / h_i^2) [a_i; r_i x a_i]
 //
 // configure() does the work that depends only on the model and the switches; prepare() the
-// rotor-speed-dependent work once per step; evaluate() is what the four RK4 stages pay. tests/dynamics/held_rotor_wrench_test.cpp checks it against accumulate_wrench()
-// term by term at random states, so the two cannot drift apart.
+// rotor-speed-dependent work once per step; evaluate() is what the four RK4 stages pay.
+// tests/dynamics/held_rotor_wrench_test.cpp checks it against accumulate_wrench() term by term at
+// random states, so the two cannot drift apart.
 
 #include <algorithm>
 #include <array>
@@ -96,8 +97,10 @@ class HeldRotorWrench {
   }
 
   /// Total non-gravitational [F_B; M_B] at state x with rotation R = R(q).
-  DRONETWIN_HOT_INLINE Eigen::Matrix<double, 6, 1> evaluate(const VehicleModel& model, const Environment& env,
-                                       const StateVector& x, const Mat3& R) const {
+  DRONETWIN_HOT_INLINE Eigen::Matrix<double, 6, 1> evaluate(const VehicleModel& model,
+                                                            const Environment& env,
+                                                            const StateVector& x,
+                                                            const Mat3& R) const {
     using namespace state_index;
     Eigen::Matrix<double, 6, 1> air_and_rate;
     air_and_rate.head<3>() = R.transpose() * (x.segment<3>(kVelocity) - env.wind_W_m_s);
@@ -118,33 +121,37 @@ class HeldRotorWrench {
 
   /// x_dot for the held rotor speeds (same equations as state_derivative()).
   DRONETWIN_HOT_INLINE StateVector derivative(const VehicleModel& model, const Environment& env,
-                         const StateVector& x) const {
+                                              const StateVector& x) const {
     const Mat3 R = math::rotation_matrix<double>(x.segment<4>(state_index::kQuaternion));
     const Eigen::Matrix<double, 6, 1> w = evaluate(model, env, x, R);
     if (diagonal_inertia_) {
-      return newton_euler_diagonal_inertia<double>(x, R, w.head<3>(), w.tail<3>(),
-                                                   model.mass_kg(), inertia_diagonal_,
-                                                   inertia_inverse_diagonal_, env.gravity_W_m_s2);
+      return newton_euler_diagonal_inertia<double>(x, R, w.head<3>(), w.tail<3>(), model.mass_kg(),
+                                                   inertia_diagonal_, inertia_inverse_diagonal_,
+                                                   env.gravity_W_m_s2);
     }
     return newton_euler<double>(x, R, w.head<3>(), w.tail<3>(), model.mass_kg(),
-                                model.inertia_kgm2(), model.inertia_inverse(),
-                                env.gravity_W_m_s2);
+                                model.inertia_kgm2(), model.inertia_inverse(), env.gravity_W_m_s2);
   }
 
  private:
   int num_rotors_ = 0;
   DisturbanceSwitches switches_{};
-  Eigen::Matrix<double, 36, kMaxRotors> per_speed_maps_ = Eigen::Matrix<double, 36, kMaxRotors>::Zero();
+  Eigen::Matrix<double, 36, kMaxRotors> per_speed_maps_ =
+      Eigen::Matrix<double, 36, kMaxRotors>::Zero();
   Matrix6 body_drag_map_ = Matrix6::Zero();
   Eigen::Matrix<double, kMaxRotors, 1> abs_speed_ = Eigen::Matrix<double, kMaxRotors, 1>::Zero();
   Eigen::Matrix<double, 6, 1> constant_ = Eigen::Matrix<double, 6, 1>::Zero();
   Matrix6 velocity_map_ = Matrix6::Zero();
   Vec3 rotor_momentum_B_ = Vec3::Zero();
   std::array<double, kMaxRotors> ground_gain_{};
-  Eigen::Matrix<double, 3, kMaxRotors> rotor_position_ = Eigen::Matrix<double, 3, kMaxRotors>::Zero();
-  Eigen::Matrix<double, 6, kMaxRotors> ground_direction_ = Eigen::Matrix<double, 6, kMaxRotors>::Zero();
-  Eigen::Matrix<double, 6, kMaxRotors> thrust_wrench_ = Eigen::Matrix<double, 6, kMaxRotors>::Zero();
-  Eigen::Matrix<double, 3, kMaxRotors> momentum_per_speed_ = Eigen::Matrix<double, 3, kMaxRotors>::Zero();
+  Eigen::Matrix<double, 3, kMaxRotors> rotor_position_ =
+      Eigen::Matrix<double, 3, kMaxRotors>::Zero();
+  Eigen::Matrix<double, 6, kMaxRotors> ground_direction_ =
+      Eigen::Matrix<double, 6, kMaxRotors>::Zero();
+  Eigen::Matrix<double, 6, kMaxRotors> thrust_wrench_ =
+      Eigen::Matrix<double, 6, kMaxRotors>::Zero();
+  Eigen::Matrix<double, 3, kMaxRotors> momentum_per_speed_ =
+      Eigen::Matrix<double, 3, kMaxRotors>::Zero();
   bool diagonal_inertia_ = false;
   Vec3 inertia_diagonal_ = Vec3::Zero();
   Vec3 inertia_inverse_diagonal_ = Vec3::Zero();

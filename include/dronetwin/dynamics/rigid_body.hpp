@@ -15,16 +15,16 @@ template <class T>
 using StateVectorT = Eigen::Matrix<T, kStateSize, 1>;
 
 template <class T>
-DRONETWIN_HOT_INLINE StateVectorT<T> newton_euler(const StateVectorT<T>& x, const Matrix3<T>& R, const Vector3<T>& F_B,
-                             const Vector3<T>& M_B, double mass_kg, const Mat3& inertia,
-                             const Mat3& inertia_inv, const Vec3& gravity_W) {
+DRONETWIN_HOT_INLINE StateVectorT<T> newton_euler(const StateVectorT<T>& x, const Matrix3<T>& R,
+                                                  const Vector3<T>& F_B, const Vector3<T>& M_B,
+                                                  double mass_kg, const Mat3& inertia,
+                                                  const Mat3& inertia_inv, const Vec3& gravity_W) {
   using namespace state_index;
   const Vector3<T> w = x.template segment<3>(kAngularVelocity);
   StateVectorT<T> d;
   d.template segment<3>(kPosition) = x.template segment<3>(kVelocity);
   d.template segment<3>(kVelocity) = R * F_B / T(mass_kg) + gravity_W.cast<T>();
-  d.template segment<4>(kQuaternion) =
-      math::derivative<T>(x.template segment<4>(kQuaternion), w);
+  d.template segment<4>(kQuaternion) = math::derivative<T>(x.template segment<4>(kQuaternion), w);
   const Vector3<T> Jw = inertia.cast<T>() * w;
   d.template segment<3>(kAngularVelocity) = inertia_inv.cast<T>() * (M_B - w.cross(Jw));
   return d;
@@ -41,8 +41,7 @@ DRONETWIN_HOT_INLINE StateVectorT<T> newton_euler_diagonal_inertia(
   StateVectorT<T> d;
   d.template segment<3>(kPosition) = x.template segment<3>(kVelocity);
   d.template segment<3>(kVelocity) = R * F_B / T(mass_kg) + gravity_W.cast<T>();
-  d.template segment<4>(kQuaternion) =
-      math::derivative<T>(x.template segment<4>(kQuaternion), w);
+  d.template segment<4>(kQuaternion) = math::derivative<T>(x.template segment<4>(kQuaternion), w);
   const Vector3<T> Jw = j.cast<T>().cwiseProduct(w);
   d.template segment<3>(kAngularVelocity) = j_inv.cast<T>().cwiseProduct(M_B - w.cross(Jw));
   return d;

@@ -44,16 +44,19 @@ void accumulate_wrench(const VehicleModel& model, const DisturbanceSwitches& sw,
     sink.force(Term::kThrust, thrust_force<T>(r, w), r.position_m);
     sink.moment(Term::kYawReaction, yaw_reaction_moment<T>(r, thrust_N));
     if (need_plane_velocity) {
-      const Vector3<T> v_perp = in_plane<T>(hub_air_velocity<T>(v_air_B, w_B, r.position_m), r.axis);
-      if (sw.rotor_drag) sink.force(Term::kRotorDrag, rotor_drag_force<T>(r, w, v_perp), r.position_m);
+      const Vector3<T> v_perp =
+          in_plane<T>(hub_air_velocity<T>(v_air_B, w_B, r.position_m), r.axis);
+      if (sw.rotor_drag)
+        sink.force(Term::kRotorDrag, rotor_drag_force<T>(r, w, v_perp), r.position_m);
       if (sw.rolling_moment) sink.moment(Term::kRollingMoment, rolling_moment<T>(r, w, v_perp));
     }
     if (sw.drag_moment) sink.moment(Term::kDragMoment, drag_moment<T>(r, thrust_N));
     if (sw.ground_effect) {
       const T hub_height = p_W.z() + R.row(2).dot(r.position_m.cast<T>());
-      sink.force(Term::kGroundEffect,
-                 ground_effect_force<T>(r, thrust_N, hub_height, model.ground_effect_min_height_m()),
-                 r.position_m);
+      sink.force(
+          Term::kGroundEffect,
+          ground_effect_force<T>(r, thrust_N, hub_height, model.ground_effect_min_height_m()),
+          r.position_m);
     }
     if (sw.gyroscopic) rotor_momentum_B += (r.spin * r.inertia_kgm2 * w) * r.axis;
   }

@@ -15,23 +15,23 @@
 namespace dronetwin {
 
 enum class Term : int {
-  kThrust = 0,      ///< T_i along each rotor axis, Eq. 2.22 (+ its moment r_i x T_i)
-  kYawReaction,     ///< +eps_i T_i / K_tau about each axis, Eq. 2.24
-  kRotorDrag,       ///< -|w_i| C_D v_perp,i at each hub, Eq. 2.32
-  kRollingMoment,   ///< |w_i| C_R v_perp,i, Eq. 2.32
-  kDragMoment,      ///< -eps_i C_MD T_i along each axis, Eq. 2.32
-  kGroundEffect,    ///< C_G T_i / h_i^2 along each axis, appendix C.2 form
-  kGyroscopic,      ///< -w_B x sum_i eps_i J_r w_i a_i, Eq. 2.35
-  kBodyDrag,        ///< -A v_air on the frame, Eq. 2.32
-  kGravity,         ///< m g
+  kThrust = 0,     ///< T_i along each rotor axis, Eq. 2.22 (+ its moment r_i x T_i)
+  kYawReaction,    ///< +eps_i T_i / K_tau about each axis, Eq. 2.24
+  kRotorDrag,      ///< -|w_i| C_D v_perp,i at each hub, Eq. 2.32
+  kRollingMoment,  ///< |w_i| C_R v_perp,i, Eq. 2.32
+  kDragMoment,     ///< -eps_i C_MD T_i along each axis, Eq. 2.32
+  kGroundEffect,   ///< C_G T_i / h_i^2 along each axis, appendix C.2 form
+  kGyroscopic,     ///< -w_B x sum_i eps_i J_r w_i a_i, Eq. 2.35
+  kBodyDrag,       ///< -A v_air on the frame, Eq. 2.32
+  kGravity,        ///< m g
 };
 inline constexpr int kNumTerms = 9;
 
 /// Lower-case name used in logs and experiment files ("rotor_drag", ...).
 constexpr std::string_view term_name(Term t) {
   constexpr std::array<std::string_view, kNumTerms> names{
-      "thrust",      "yaw_reaction",  "rotor_drag", "rolling_moment", "drag_moment",
-      "ground_effect", "gyroscopic", "body_drag",  "gravity"};
+      "thrust",        "yaw_reaction", "rotor_drag", "rolling_moment", "drag_moment",
+      "ground_effect", "gyroscopic",   "body_drag",  "gravity"};
   return names[static_cast<std::size_t>(t)];
 }
 

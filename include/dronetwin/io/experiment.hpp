@@ -109,9 +109,9 @@ struct ControllerLoopInput {
 };
 
 /// What drives the rotors: open-loop schedules or a closed-loop controller.
-using ExperimentInput = std::variant<ConstantRotorSpeedsInput, PiecewiseRotorSpeedsInput,
-                                     ConstantGeneralizedForceInput, HoverInput,
-                                     ControllerLoopInput>;
+using ExperimentInput =
+    std::variant<ConstantRotorSpeedsInput, PiecewiseRotorSpeedsInput, ConstantGeneralizedForceInput,
+                 HoverInput, ControllerLoopInput>;
 
 /// The `type:` name of an input ("constant_rotor_speeds", ...).
 std::string_view input_type_name(const ExperimentInput& input);

@@ -56,9 +56,9 @@ struct DiagnosticSummary {
 struct ClosedLoopSummary {
   std::string controller_name;  ///< ControllerBase::name(), e.g. "cascaded_pid"
   std::string controller_path;
-  std::string allocation;       ///< the allocation the controller flew with (exact, thesis)
-  std::string reference_type;   ///< setpoint, thesis_pulse, circle, ...
-  std::string reference;        ///< Reference::describe()
+  std::string allocation;      ///< the allocation the controller flew with (exact, thesis)
+  std::string reference_type;  ///< setpoint, thesis_pulse, circle, ...
+  std::string reference;       ///< Reference::describe()
   double control_rate_hz = 0.0;
   bool real_time = false;
   /// Root-mean-square tracking error [x, y, z, yaw] (m, m, m, rad) of the TRUE state against the

@@ -55,8 +55,8 @@ inline Vec4 from_euler(double roll, double pitch, double yaw) {
   const double cr = std::cos(roll / 2), sr = std::sin(roll / 2);
   const double cp = std::cos(pitch / 2), sp = std::sin(pitch / 2);
   const double cy = std::cos(yaw / 2), sy = std::sin(yaw / 2);
-  return Vec4(cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
-              cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy);
+  return Vec4(cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+              cr * cp * sy - sr * sp * cy);
 }
 
 /// ZYX Euler angles [roll, pitch, yaw] of a unit quaternion (inverse of from_euler, atan2-based).

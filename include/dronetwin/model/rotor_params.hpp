@@ -11,13 +11,14 @@ namespace dronetwin {
 struct RotorParams {
   /// Hub position relative to the centre of mass, body frame, m (thesis Eq. 2.25, z from SDF).
   Vec3 position_m = Vec3::Zero();
-  /// Thrust direction in the body frame; normalised when the model is loaded. Tilted rotors allowed.
+  /// Thrust direction in the body frame; normalised when the model is loaded. Tilted rotors
+  /// allowed.
   Vec3 axis = Vec3::UnitZ();
   /// Turning direction epsilon_i in {+1, -1}. Sign convention of thesis Eq. 2.24: the reaction
   /// (yaw) moment of this rotor is +epsilon_i * T_i / K_tau about its axis.
   int spin = 1;
-  /// Thrust polynomial T(w) = c[0] w^2 + c[1] w + c[2]  ('K1 [N s^2/rad^2], 'K2 [N s/rad], 'K3 [N]),
-  /// thesis Eq. 2.22.
+  /// Thrust polynomial T(w) = c[0] w^2 + c[1] w + c[2]  ('K1 [N s^2/rad^2], 'K2 [N s/rad], 'K3
+  /// [N]), thesis Eq. 2.22.
   std::array<double, 3> thrust_coefficients{0.0, 0.0, 0.0};
   /// Reaction moment per unit thrust, 1/K_tau, m (thesis Eq. 2.23).
   double yaw_moment_per_thrust_m = 0.0;

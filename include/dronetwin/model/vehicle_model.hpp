@@ -89,7 +89,9 @@ class VehicleModel {
   /// Rank of wrench_matrix(): 4 for coplanar rotors, up to 6 for tilted layouts.
   int wrench_rank() const { return wrench_rank_; }
   /// Geometric constants of rotor i (see RotorGeometry).
-  const RotorGeometry& rotor_geometry(int i) const { return geometry_[static_cast<std::size_t>(i)]; }
+  const RotorGeometry& rotor_geometry(int i) const {
+    return geometry_[static_cast<std::size_t>(i)];
+  }
 
   /// Per-rotor thrust (N) holding the vehicle still in the air, from the wrench pseudo-inverse
   /// applied to [0, 0, m g, 0, 0, 0] (g = 9.81 m/s^2 unless given).

@@ -3,7 +3,8 @@
 //
 // Discrete process, one sample per physics step of length dt:
 //   Y_{k+1} = Y_k - Theta Y_k + Sigma sqrt(dt) xi_k,   xi_k ~ N(0, I_13)      (Eq. 3.5, default)
-//   Y_{k+1} = Y_k - Theta Y_k dt + Sigma sqrt(dt) xi_k                          (Eq. 3.4, `continuous`)
+//   Y_{k+1} = Y_k - Theta Y_k dt + Sigma sqrt(dt) xi_k                          (Eq. 3.4,
+//   `continuous`)
 // Theta and Sigma are block diagonal with one block per physical quantity in state order
 // (p 3, v 3, q 4, w 3; notes #28), each block B_N(a, b) = a I + b 1 1^T (Eq. 3.8-3.9). Because a
 // block is "a I + b 1 1^T", applying it costs O(N): a y + b sum(y).
@@ -56,7 +57,8 @@ inline constexpr std::array<int, 4> kOuBlockOffset{0, 3, 6, 10};
 /// Dense 13x13 form of a block-diagonal B_N(a, b) matrix (for tests and analysis).
 inline Eigen::Matrix<double, kStateSize, kStateSize> ou_block_matrix(
     const std::array<BlockCoefficients, 4>& blocks) {
-  Eigen::Matrix<double, kStateSize, kStateSize> m = Eigen::Matrix<double, kStateSize, kStateSize>::Zero();
+  Eigen::Matrix<double, kStateSize, kStateSize> m =
+      Eigen::Matrix<double, kStateSize, kStateSize>::Zero();
   for (int k = 0; k < 4; ++k) {
     const int n = kOuBlockSize[k], o = kOuBlockOffset[k];
     m.block(o, o, n, n).setConstant(blocks[k].b);

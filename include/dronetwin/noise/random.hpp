@@ -49,9 +49,9 @@ class Random {
       const std::uint64_t bits = next_u64();
       const int layer = static_cast<int>(bits & 127u);
       // Signed 53-bit uniform in (-1, 1) from the remaining bits.
-      const double u = static_cast<double>(static_cast<std::int64_t>(bits >> 11) -
-                                           (std::int64_t{1} << 52)) *
-                       0x1.0p-52;
+      const double u =
+          static_cast<double>(static_cast<std::int64_t>(bits >> 11) - (std::int64_t{1} << 52)) *
+          0x1.0p-52;
       const double x = u * z.x[layer];
       if (std::abs(u) < z.ratio[layer]) return x;  // inside the rectangle: the common case
       if (layer == 0) return tail(u < 0);
@@ -63,13 +63,13 @@ class Random {
 
  private:
   static constexpr int kLayers = 128;
-  static constexpr double kR = 3.442619855899;       // right edge of the base layer
+  static constexpr double kR = 3.442619855899;          // right edge of the base layer
   static constexpr double kArea = 9.91256303526217e-3;  // area of each layer (unnormalised pdf)
 
   struct Tables {
-    std::array<double, kLayers + 1> x{};      // layer right edges, x[0] = base width A/f(R)
-    std::array<double, kLayers + 1> f{};      // exp(-x^2/2) at those edges
-    std::array<double, kLayers> ratio{};      // x[i+1]/x[i]: fraction fully inside the density
+    std::array<double, kLayers + 1> x{};  // layer right edges, x[0] = base width A/f(R)
+    std::array<double, kLayers + 1> f{};  // exp(-x^2/2) at those edges
+    std::array<double, kLayers> ratio{};  // x[i+1]/x[i]: fraction fully inside the density
   };
 
   static const Tables& tables() {
@@ -79,8 +79,8 @@ class Random {
       b.x[0] = kArea / fR;  // the base layer includes the tail, as a virtual rectangle
       b.x[1] = kR;
       for (int i = 2; i < kLayers; ++i) {
-        b.x[i] = std::sqrt(-2.0 * std::log(kArea / b.x[i - 1] + std::exp(-0.5 * b.x[i - 1] *
-                                                                           b.x[i - 1])));
+        b.x[i] = std::sqrt(-2.0 *
+                           std::log(kArea / b.x[i - 1] + std::exp(-0.5 * b.x[i - 1] * b.x[i - 1])));
       }
       b.x[kLayers] = 0.0;
       for (int i = 0; i <= kLayers; ++i) b.f[i] = std::exp(-0.5 * b.x[i] * b.x[i]);
