@@ -14,14 +14,15 @@
 #include <sstream>
 
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/dynamics/force_kernel.hpp"
 #include "dronetwin/dynamics/motor.hpp"
-#include "dronetwin/identification/parametric_dynamics.hpp"
+#include "dronetwin/identification/parameter_map.hpp"
 #include "dronetwin/math/quaternion.hpp"
 
 namespace dronetwin {
 namespace {
 
-using Theta = ParametricModel::Theta;
+using Theta = ParameterMap::Theta;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // ---- data ------------------------------------------------------------------------------------
@@ -106,28 +107,43 @@ struct Weights {
          motor = 1.0;
 };
 
+// The flight's conditions every residual needs: the parameter map, which terms the log was flown
+// with, and the air and gravity.
+struct Physics {
+  const ParameterMap* pm;
+  DisturbanceSwitches switches;
+  Environment environment;
+  /// The force kernel of the model at theta (the fit's unknowns, double or Jet).
+  template <class T>
+  ForceKernel<T> kernel_at(const std::array<T, kNumModelParameters>& theta) const {
+    return ForceKernel<T>(pm->model_at(theta.data()), ForceTerms::of(switches));
+  }
+};
+
 // Equation error on a chunk of intervals: 6 residuals each.
 struct EquationError {
-  const ParametricModel* pm;
+  const Physics* physics;
   const FlightData* d;
   const ThetaMap* map;
   std::vector<int> intervals;
   Weights w;
   template <class T>
   bool operator()(T const* const* params, T* res) const {
-    const auto th = map->full<T>(params[0]);
+    const ForceKernel<T> kernel = physics->kernel_at(map->full<T>(params[0]));
+    const Environment& env = physics->environment;
+    HeldRotorTerms<T> held;
     for (std::size_t i = 0; i < intervals.size(); ++i) {
       const auto k = static_cast<std::size_t>(intervals[i]);
       const double dt = d->t_s[k + 1] - d->t_s[k];
-      const RotorVector& speeds = d->rotor_speed_rad_s[k];  // held over the interval
-      const StateVectorT<T> f0 = pm->derivative<T, double>(th.data(), d->state[k], speeds);
-      const StateVectorT<T> f1 = pm->derivative<T, double>(th.data(), d->state[k + 1], speeds);
+      kernel.prepare(d->rotor_speed_rad_s[k], held);  // speeds held over the interval
+      const StateVectorT<T> f0 = kernel.derivative(held, d->state[k], env);
+      const StateVectorT<T> f1 = kernel.derivative(held, d->state[k + 1], env);
       const bool accelerometer = !d->specific_force_W_m_s2.empty();
       for (int a = 0; a < 3; ++a) {
         const double dv =
             accelerometer
                 ? 0.5 * (d->specific_force_W_m_s2[k][a] + d->specific_force_W_m_s2[k + 1][a]) +
-                      pm->environment().gravity_W_m_s2[a]
+                      env.gravity_W_m_s2[a]
                 : (d->state[k + 1][3 + a] - d->state[k][3 + a]) / dt;
         res[6 * i + static_cast<std::size_t>(a)] =
             w.linear * (dv - T(0.5) * (f0[3 + a] + f1[3 + a]));
@@ -154,7 +170,6 @@ struct MotorLag {
   Weights w;
   template <class T>
   bool operator()(T const* const* params, T* res) const {
-    using std::exp;
     const auto th = map->full<T>(params[0]);
     const T tau_rise = th[static_cast<std::size_t>(ModelParameter::kTauRise)] * tau_rise_unit;
     const T tau_fall = th[static_cast<std::size_t>(ModelParameter::kTauFall)] * tau_fall_unit;
@@ -162,14 +177,13 @@ struct MotorLag {
     for (std::size_t i = 0; i < intervals.size(); ++i) {
       const auto k = static_cast<std::size_t>(intervals[i]);
       const double dt = d->t_s[k + 1] - d->t_s[k];
+      const T decay_rise = motor_decay(tau_rise, dt), decay_fall = motor_decay(tau_fall, dt);
       for (int r = 0; r < nr; ++r) {
         const double w0 = d->rotor_speed_rad_s[k][r];
-        const double ref =
-            clamp_speed(model->rotor(r), d->rotor_reference_rad_s[k][r]);  // as advance_motors
-        const T tau = ref > w0 ? tau_rise : tau_fall;
-        const T a = exp(-T(dt) / tau);
+        const double ref = clamp_speed(model->rotor(r), d->rotor_reference_rad_s[k][r]);
         res[i * static_cast<std::size_t>(nr) + static_cast<std::size_t>(r)] =
-            w.motor * (d->rotor_speed_rad_s[k + 1][r] - (a * w0 + (T(1) - a) * ref));
+            w.motor * (d->rotor_speed_rad_s[k + 1][r] -
+                       motor_speed_after(decay_rise, decay_fall, ref, w0));  // Eq. 2.45
       }
     }
     return true;
@@ -178,7 +192,7 @@ struct MotorLag {
 
 // Output error over one window of `len` intervals from row k0: 12 residuals per row reached.
 struct OutputError {
-  const ParametricModel* pm;
+  const Physics* physics;
   const FlightData* d;
   const ThetaMap* map;
   int k0 = 0, len = 0;
@@ -187,22 +201,22 @@ struct OutputError {
   static constexpr double kMaxSubstep_s = 1.0e-3;
   template <class T>
   bool operator()(T const* const* params, T* res) const {
-    const auto th = map->full<T>(params[0]);
+    const ForceKernel<T> kernel = physics->kernel_at(map->full<T>(params[0]));
+    const Environment& env = physics->environment;
+    HeldRotorTerms<T> held;
     StateVectorT<T> x = d->state[static_cast<std::size_t>(k0)].template cast<T>();
     for (int j = 0; j < len; ++j) {
       const auto k = static_cast<std::size_t>(k0 + j);
       const double dt_total = d->t_s[k + 1] - d->t_s[k];
       const int sub = std::max(1, static_cast<int>(std::ceil(dt_total / kMaxSubstep_s - 1e-9)));
       const T h(dt_total / sub);
-      const RotorVector& speeds = d->rotor_speed_rad_s[k];
+      kernel.prepare(d->rotor_speed_rad_s[k], held);
+      const auto f = [&](const StateVectorT<T>& xs) { return kernel.derivative(held, xs, env); };
       for (int s = 0; s < sub; ++s) {  // RK4 with the rotor speeds held, as the simulator steps
-        const StateVectorT<T> k1 = pm->derivative<T, T>(th.data(), x, speeds);
-        const StateVectorT<T> k2 =
-            pm->derivative<T, T>(th.data(), StateVectorT<T>(x + (h / T(2)) * k1), speeds);
-        const StateVectorT<T> k3 =
-            pm->derivative<T, T>(th.data(), StateVectorT<T>(x + (h / T(2)) * k2), speeds);
-        const StateVectorT<T> k4 =
-            pm->derivative<T, T>(th.data(), StateVectorT<T>(x + h * k3), speeds);
+        const StateVectorT<T> k1 = f(x);
+        const StateVectorT<T> k2 = f(StateVectorT<T>(x + (h / T(2)) * k1));
+        const StateVectorT<T> k3 = f(StateVectorT<T>(x + (h / T(2)) * k2));
+        const StateVectorT<T> k4 = f(StateVectorT<T>(x + h * k3));
         x += (h / T(6)) * (k1 + T(2) * k2 + T(2) * k3 + k4);
         const T qn = x.template segment<4>(6).norm();
         x.template segment<4>(6) /= qn;
@@ -250,7 +264,7 @@ constexpr int kChunk = 64;  // intervals per equation-error / motor residual blo
 struct Setup {
   const VehicleModel* model;
   const FlightData* d;
-  const ParametricModel* pm;
+  const Physics* physics;
   ThetaMap map;
   bool use_eq = false, use_out = false, use_motor = false;
   int window_len = 0;
@@ -269,7 +283,7 @@ Channels evaluate(const Setup& s, const std::vector<double>& block,
   Channels c;
   const double* p[1] = {block.data()};
   if (eq) {
-    EquationError f{s.pm, s.d, &s.map, intervals, Weights{}};
+    EquationError f{s.physics, s.d, &s.map, intervals, Weights{}};
     std::vector<double> r(6 * intervals.size());
     f(p, r.data());
     for (std::size_t i = 0; i < intervals.size(); ++i) {
@@ -291,7 +305,7 @@ Channels evaluate(const Setup& s, const std::vector<double>& block,
   }
   if (out) {
     for (int k0 : windows) {
-      OutputError f{s.pm, s.d, &s.map, k0, s.window_len, Weights{}};
+      OutputError f{s.physics, s.d, &s.map, k0, s.window_len, Weights{}};
       std::vector<double> r(12 * static_cast<std::size_t>(s.window_len));
       f(p, r.data());
       for (int j = 0; j < s.window_len; ++j) {
@@ -350,7 +364,7 @@ void add_costs(ceres::Problem& problem, double* block, const Setup& s, const std
     const std::vector<int> chunk(fit.begin() + static_cast<long>(i),
                                  fit.begin() + static_cast<long>(std::min(fit.size(), i + kChunk)));
     if (eq) {
-      problem.AddResidualBlock(make_cost(new EquationError{s.pm, s.d, &s.map, chunk, w}, nf,
+      problem.AddResidualBlock(make_cost(new EquationError{s.physics, s.d, &s.map, chunk, w}, nf,
                                          6 * static_cast<int>(chunk.size())),
                                nullptr, block);
     }
@@ -364,7 +378,8 @@ void add_costs(ceres::Problem& problem, double* block, const Setup& s, const std
   if (out) {
     for (int k0 : windows) {
       problem.AddResidualBlock(
-          make_cost(new OutputError{s.pm, s.d, &s.map, k0, s.window_len, w}, nf, 12 * s.window_len),
+          make_cost(new OutputError{s.physics, s.d, &s.map, k0, s.window_len, w}, nf,
+                    12 * s.window_len),
           nullptr, block);
     }
   }
@@ -548,11 +563,12 @@ FitResult fit_model(const VehicleModel& model, const FlightData& data, const Fit
               data.in_contact.size() == data.t_s.size(),
           data.source, ": FlightData columns have different lengths");
 
-  const ParametricModel pm(model, o.switches, o.environment);
+  const ParameterMap pm(model);
+  const Physics physics{&pm, o.switches, o.environment};
   // Two independent problems: the body parameters (accelerations / states) and the motor time
   // constants (rotor speeds). Nothing couples them, and solving them apart keeps each one's
   // residual weights and covariance conditioning in its own units.
-  Setup body{&model, &data, &pm, {}, false, false, false, 0, 1.0, 1.0};
+  Setup body{&model, &data, &physics, {}, false, false, false, 0, 1.0, 1.0};
   body.map.fixed = pm.initial_theta();
   Setup motor = body;
   for (ModelParameter p : o.parameters) {

@@ -10,7 +10,8 @@
 
 namespace dronetwin {
 
-double RotorParams::speed_for_thrust(double thrust_N) const {
+template <>
+double RotorParamsTpl<double>::speed_for_thrust(double thrust_N) const {
   const double a = thrust_coefficients[0], b = thrust_coefficients[1], c = thrust_coefficients[2];
   double w;
   if (a > 0.0) {
@@ -96,8 +97,8 @@ void validate_rotor(const VehicleSpec& s, std::size_t i) {
 
 }  // namespace
 
-VehicleModel::VehicleModel(VehicleSpec spec) : spec_(std::move(spec)) {
-  const VehicleSpec& s = spec_;
+VehicleModel::Validated VehicleModel::validate(VehicleSpec spec) {
+  const VehicleSpec& s = spec;
   require_finite(s, "mass_kg", s.mass_kg);
   require(s.mass_kg > 0.0, where(s), ": mass_kg: expected > 0, got ", s.mass_kg);
   require_finite(s, "inertia_kgm2", s.inertia_kgm2);
@@ -130,9 +131,23 @@ VehicleModel::VehicleModel(VehicleSpec spec) : spec_(std::move(spec)) {
   require(n >= 1 && n <= static_cast<std::size_t>(kMaxRotors), where(s),
           ": rotors: expected between 1 and ", kMaxRotors, " rotors, got ", n);
   for (std::size_t i = 0; i < n; ++i) validate_rotor(s, i);
-  for (auto& r : spec_.rotors) r.axis.normalize();
+  for (auto& r : spec.rotors) r.axis.normalize();
 
-  inertia_inv_ = s.inertia_kgm2.inverse();
+  VehicleParametersTpl<double> p;
+  p.num_rotors = static_cast<int>(n);
+  for (std::size_t i = 0; i < n; ++i) p.rotors[i] = spec.rotors[i];
+  p.mass_kg = spec.mass_kg;
+  p.inertia_kgm2 = spec.inertia_kgm2;
+  p.body_drag_Ns_per_m = spec.body_drag_Ns_per_m;
+  p.ground_effect_min_height_m = spec.ground_effect_min_height_m;
+  return {std::move(spec), std::move(p)};
+}
+
+VehicleModel::VehicleModel(VehicleSpec spec) : VehicleModel(validate(std::move(spec))) {}
+
+VehicleModel::VehicleModel(Validated validated)
+    : VehicleModelTpl<double>(std::move(validated.second)), spec_(std::move(validated.first)) {
+  const VehicleSpec& s = spec_;
   const int nr = num_rotors();
   wrench_.resize(6, nr);
   allocation_.resize(4, nr);
@@ -141,19 +156,6 @@ VehicleModel::VehicleModel(VehicleSpec spec) : spec_(std::move(spec)) {
     const Vec3 moment = r.position_m.cross(r.axis) + r.spin * r.yaw_moment_per_thrust_m * r.axis;
     wrench_.col(i) << r.axis, moment;
     allocation_.col(i) << r.axis.z(), moment;
-    // The in-plane hub velocity is linear in the body air velocity v and body rate w:
-    // v_perp = P (v + w x r) = P v - P [r]x w.
-    const Mat3 plane = Mat3::Identity() - r.axis * r.axis.transpose();
-    Mat3 r_hat;
-    r_hat << 0, -r.position_m.z(), r.position_m.y(), r.position_m.z(), 0, -r.position_m.x(),
-        -r.position_m.y(), r.position_m.x(), 0;
-    Eigen::Matrix<double, 3, 6> v_perp_map;
-    v_perp_map << plane, -plane * r_hat;
-    RotorGeometry& g = geometry_[static_cast<std::size_t>(i)];
-    g.arm_cross_axis = r.position_m.cross(r.axis);
-    g.drag_map.topRows<3>() = -v_perp_map;
-    g.drag_map.bottomRows<3>() = -r_hat * v_perp_map;
-    g.rolling_map.bottomRows<3>() = v_perp_map;
   }
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd_a(Eigen::MatrixXd(allocation_),
                                                 Eigen::ComputeThinU | Eigen::ComputeThinV);

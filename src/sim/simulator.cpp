@@ -4,7 +4,6 @@
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/dynamics/ground.hpp"
-#include "dronetwin/dynamics/held_rotor_wrench.hpp"
 #include "dronetwin/dynamics/vehicle_dynamics.hpp"
 #include "dronetwin/integrators/integrator.hpp"
 #include "dronetwin/math/quaternion.hpp"
@@ -57,7 +56,8 @@ Simulator::Simulator(std::shared_ptr<const VehicleModel> model, SimConfig config
   require(model_ != nullptr, "Simulator: model is null");
   validate(config_);
   motors_ = discretize_motors(*model_, config_.dt_s);
-  held_.configure(*model_, config_.disturbances);
+  kernel_ =
+      std::make_shared<const ForceKernel<double>>(*model_, ForceTerms::of(config_.disturbances));
   data_.state_noise = OrnsteinUhlenbeck(config_.noise.parameters, config_.dt_s);
   data_.derivative_noise = OrnsteinUhlenbeck(config_.noise.parameters, config_.dt_s);
   reset(hover_state(Vec3::Zero()));
@@ -99,7 +99,7 @@ void Simulator::reset(const StateVector& state, const RotorVector& rotor_speeds_
     data_.contact.in_contact = true;
   }
   data_.status = StepStatus::kOk;
-  data_.failure_message.clear();
+  data_.failure = StepFailure{};
 }
 
 void Simulator::reseed(std::uint64_t seed) {
@@ -152,7 +152,7 @@ void Simulator::set_generalized_force(const GeneralizedForce& u) {
 
 void Simulator::set_disturbances(const DisturbanceSwitches& switches) {
   config_.disturbances = switches;
-  held_.configure(*model_, switches);
+  kernel_ = std::make_shared<const ForceKernel<double>>(*model_, ForceTerms::of(switches));
 }
 
 void Simulator::set_wind(const Vec3& wind_W_m_s) {
@@ -161,50 +161,72 @@ void Simulator::set_wind(const Vec3& wind_W_m_s) {
   config_.environment.wind_W_m_s = wind_W_m_s;
 }
 
-StepStatus Simulator::check_state(const StateVector& x, std::string& message) const {
+StepStatus Simulator::check_state(const StateVector& x) const {
   using namespace state_index;
-  if (!x.allFinite()) {
-    message = detail::concat("state became non-finite at t = ", data_.time_s + config_.dt_s,
-                             " s (step ", data_.step_count + 1, ")");
-    return StepStatus::kNonFinite;
-  }
+  if (!x.allFinite()) return StepStatus::kNonFinite;
   const DivergenceLimits& lim = config_.divergence;
   // Squared norms against squared limits (the limits are positive): no square roots on the
-  // path taken every step; the norms themselves are only needed for the message.
+  // path taken every step.
   const double p2 = x.segment<3>(kPosition).squaredNorm(),
                v2 = x.segment<3>(kVelocity).squaredNorm(),
                w2 = x.segment<3>(kAngularVelocity).squaredNorm();
   if (p2 > lim.max_position_m * lim.max_position_m || v2 > lim.max_speed_m_s * lim.max_speed_m_s ||
       w2 > lim.max_angular_speed_rad_s * lim.max_angular_speed_rad_s) {
-    const double p = std::sqrt(p2), v = std::sqrt(v2), w = std::sqrt(w2);
-    message = detail::concat("state diverged at t = ", data_.time_s + config_.dt_s, " s: |p| = ", p,
-                             " m (limit ", lim.max_position_m, "), |v| = ", v, " m/s (limit ",
-                             lim.max_speed_m_s, "), |w| = ", w, " rad/s (limit ",
-                             lim.max_angular_speed_rad_s, ")");
     return StepStatus::kDiverged;
   }
   return StepStatus::kOk;
 }
 
+std::string Simulator::failure_message() const {
+  const StepFailure& f = data_.failure;
+  const DivergenceLimits& lim = config_.divergence;
+  switch (data_.status) {
+    case StepStatus::kOk:
+      return {};
+    case StepStatus::kNonFinite:
+      return detail::concat("state became non-finite at t = ", f.time_s, " s (step ", f.step, ")");
+    case StepStatus::kDiverged:
+      return detail::concat("state diverged at t = ", f.time_s, " s: |p| = ", f.position_m,
+                            " m (limit ", lim.max_position_m, "), |v| = ", f.speed_m_s,
+                            " m/s (limit ", lim.max_speed_m_s, "), |w| = ", f.angular_speed_rad_s,
+                            " rad/s (limit ", lim.max_angular_speed_rad_s, ")");
+    case StepStatus::kControllerFailed:
+      return "the controller failed";
+  }
+  return {};
+}
+
 StepResult Simulator::step() {
   if (data_.status != StepStatus::kOk) {
-    throw SimulationError("Simulator::step: the run failed earlier (" + data_.failure_message +
+    throw SimulationError("Simulator::step: the run failed earlier (" + failure_message() +
                           "); call reset() first");
   }
-  const VehicleModel& m = *model_;
   // Rotor speeds are held over the step: do their part of the force model once.
-  held_.prepare(m, data_.rotor_speed_rad_s);
-  const auto f = [&](const StateVector& x) { return held_.derivative(m, config_.environment, x); };
+  const ForceKernel<double>& kernel = *kernel_;
+  kernel.prepare(data_.rotor_speed_rad_s, held_);
+  const auto f = [&](const StateVector& x) {
+    return kernel.derivative(held_, x, config_.environment);
+  };
   StateVector next = integrate_step(config_.integrator, data_.state, config_.dt_s, f);
   normalize_quaternion(next);
-  resolve_ground_contact(config_.ground, next, data_.contact);
+  // Contact is resolved on a copy: a refused step must not change it (nor anything else).
+  ContactState contact = data_.contact;
+  resolve_ground_contact(config_.ground, next, contact);
 
-  const StepStatus status = check_state(next, data_.failure_message);
+  const StepStatus status = check_state(next);
   if (status != StepStatus::kOk) {
+    using namespace state_index;
     data_.status = status;
+    data_.failure.time_s = data_.time_s + config_.dt_s;
+    data_.failure.step = data_.step_count + 1;
+    data_.failure.position_m = next.segment<3>(kPosition).norm();
+    data_.failure.speed_m_s = next.segment<3>(kVelocity).norm();
+    data_.failure.angular_speed_rad_s = next.segment<3>(kAngularVelocity).norm();
     return {status, 0};
   }
+  const VehicleModel& m = *model_;
   data_.state = next;
+  data_.contact = contact;
   if (config_.motor_dynamics) {
     advance_motors(m, motors_, data_.rotor_speed_reference_rad_s, data_.rotor_speed_rad_s);
   } else {
@@ -236,8 +258,9 @@ StepResult Simulator::step(std::int64_t n) {
 }
 
 StateVector Simulator::state_derivative() const {
-  return dronetwin::state_derivative<double>(*model_, config_.disturbances, config_.environment,
-                                             data_.state, data_.rotor_speed_rad_s);
+  HeldRotorTerms<double> held;
+  kernel_->prepare(data_.rotor_speed_rad_s, held);
+  return kernel_->derivative(held, data_.state, config_.environment);
 }
 
 StateVector Simulator::measured_state_derivative() const {

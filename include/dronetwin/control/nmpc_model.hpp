@@ -4,7 +4,9 @@
 // so the same code runs with double (prediction) and ceres::Jet (the NMPC's Jacobians, and the
 // central-difference test in tests/control/nmpc_test.cpp).
 //
-// State x (13, the simulator's layout, Eq. 2.20): [p_W, v_W, q_WB (w, x, y, z), w_B].
+// State x (13, the simulator's layout, Eq. 2.20): [p_W, v_W, q_WB (w, x, y, z), w_B]. The
+// attitude and rotational equations are the simulator's own (math::derivative, rigid_body.hpp's
+// angular_acceleration); only the force model is Eq. 3.23's, not the full one of Sec. 2.3.
 // Input u (6): [F_W (3), M_B (3)] = Eq. 3.23's [u1 u2 u3 u4 u5 u6]:
 //   p_dot = v
 //   v_dot = T / m (+ d),   T = R [0, 0, (R e3) . F]^T - m g e3 = ((R e3) . F) R e3 - m g e3
@@ -31,6 +33,7 @@
 #include <Eigen/Core>
 
 #include "dronetwin/core/types.hpp"
+#include "dronetwin/dynamics/rigid_body.hpp"
 #include "dronetwin/math/quaternion.hpp"
 
 namespace dronetwin {
@@ -72,15 +75,11 @@ void nmpc_derivative(const NmpcModel& m, const T* x, const T* u, T* x_dot) {
   for (int i = 0; i < 3; ++i) x_dot[3 + i] += m.disturbance_m_s2[i];
   const Vector4<T> q_dot = math::derivative<T>(q, w);
   for (int i = 0; i < 4; ++i) x_dot[6 + i] = q_dot[i];
-  // J and J^-1 are constants: scalar-times-T products (a Jet times a double is cheap; a Jet
-  // times a Jet made from a double is not).
-  Vector3<T> Jw;
-  for (int i = 0; i < 3; ++i)
-    Jw[i] = m.inertia_kgm2(i, 0) * w[0] + m.inertia_kgm2(i, 1) * w[1] + m.inertia_kgm2(i, 2) * w[2];
-  const Vector3<T> rhs = M - w.cross(Jw);
-  for (int i = 0; i < 3; ++i)
-    x_dot[10 + i] = m.inertia_inverse(i, 0) * rhs[0] + m.inertia_inverse(i, 1) * rhs[1] +
-                    m.inertia_inverse(i, 2) * rhs[2];
+  // The rigid body's rotational equation, shared with the simulator (Eq. 2.39 / 2.42). J and
+  // J^-1 stay double: a Jet times a double is cheap, a Jet times a Jet made from a double is not.
+  const Vector3<T> w_dot =
+      angular_acceleration(m.inertia_kgm2, m.inertia_inverse, Vector3<T>(w), Vector3<T>(M));
+  for (int i = 0; i < 3; ++i) x_dot[10 + i] = w_dot[i];
 }
 
 /// One classical RK4 step of Eq. 3.23 with u held (zero-order hold over dt_s).

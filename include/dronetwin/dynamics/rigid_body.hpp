@@ -5,6 +5,11 @@
 //   q_dot = 1/2 q (x) [0, w_B]                   (Eq. 2.13)
 //   w_dot = J^-1 (M_B - w_B x J w_B)             (Eq. 2.39 / 2.42), full 3x3 J allowed
 // F_B and M_B are the total non-gravitational force and the total moment in the body frame.
+//
+// Templated on two scalars: the state's X and the forces' and parameters' S. They are equal for
+// the simulator (double), a batch (a pack) and a prediction under automatic differentiation; a
+// fit evaluates a logged (double) state with parameters that carry derivatives (S = Jet), so the
+// state-only parts stay cheap doubles. The result is in S.
 
 #include "dronetwin/core/types.hpp"
 #include "dronetwin/math/quaternion.hpp"
@@ -14,36 +19,57 @@ namespace dronetwin {
 template <class T>
 using StateVectorT = Eigen::Matrix<T, kStateSize, 1>;
 
-template <class T>
-DRONETWIN_HOT_INLINE StateVectorT<T> newton_euler(const StateVectorT<T>& x, const Matrix3<T>& R,
-                                                  const Vector3<T>& F_B, const Vector3<T>& M_B,
-                                                  double mass_kg, const Mat3& inertia,
-                                                  const Mat3& inertia_inv, const Vec3& gravity_W) {
+/// Eq. 2.39 / 2.42: w_dot = J^-1 (M - w x J w).
+template <class S, class X, class J>
+DRONETWIN_HOT_INLINE Vector3<S> angular_acceleration(const Matrix3<J>& inertia,
+                                                     const Matrix3<J>& inertia_inv,
+                                                     const Vector3<X>& w_B, const Vector3<S>& M_B) {
+  const Vector3<S> Jw = inertia * w_B;
+  return inertia_inv * (M_B - w_B.cross(Jw));
+}
+
+/// angular_acceleration() for a diagonal inertia J = diag(j), J^-1 = diag(j_inv): the same
+/// equations without the products by zero off-diagonal terms.
+template <class S, class X, class J>
+DRONETWIN_HOT_INLINE Vector3<S> angular_acceleration_diagonal(const Vector3<J>& j,
+                                                              const Vector3<J>& j_inv,
+                                                              const Vector3<X>& w_B,
+                                                              const Vector3<S>& M_B) {
+  const Vector3<S> Jw = j.cwiseProduct(w_B);
+  return j_inv.cwiseProduct(M_B - w_B.cross(Jw));
+}
+
+/// x_dot of the full state for body-frame force F_B and moment M_B, rotation R = R(q).
+template <class S, class X, class G>
+DRONETWIN_HOT_INLINE StateVectorT<S> newton_euler(const StateVectorT<X>& x, const Matrix3<X>& R,
+                                                  const Vector3<S>& F_B, const Vector3<S>& M_B,
+                                                  const S& mass_kg, const Matrix3<S>& inertia,
+                                                  const Matrix3<S>& inertia_inv,
+                                                  const Vector3<G>& gravity_W) {
   using namespace state_index;
-  const Vector3<T> w = x.template segment<3>(kAngularVelocity);
-  StateVectorT<T> d;
-  d.template segment<3>(kPosition) = x.template segment<3>(kVelocity);
-  d.template segment<3>(kVelocity) = R * F_B / T(mass_kg) + gravity_W.cast<T>();
-  d.template segment<4>(kQuaternion) = math::derivative<T>(x.template segment<4>(kQuaternion), w);
-  const Vector3<T> Jw = inertia.cast<T>() * w;
-  d.template segment<3>(kAngularVelocity) = inertia_inv.cast<T>() * (M_B - w.cross(Jw));
+  const Vector3<X> w = x.template segment<3>(kAngularVelocity);
+  StateVectorT<S> d;
+  d.template segment<3>(kPosition) = x.template segment<3>(kVelocity).template cast<S>();
+  d.template segment<3>(kVelocity) = R * F_B / mass_kg + gravity_W;
+  d.template segment<4>(kQuaternion) =
+      math::derivative<X>(x.template segment<4>(kQuaternion), w).template cast<S>();
+  d.template segment<3>(kAngularVelocity) = angular_acceleration(inertia, inertia_inv, w, M_B);
   return d;
 }
 
-/// newton_euler() for a diagonal inertia J = diag(j) with J^-1 = diag(j_inv) (the diagonals of
-/// the model's matrices): the same equations, without the products by zero off-diagonal terms.
-template <class T>
-DRONETWIN_HOT_INLINE StateVectorT<T> newton_euler_diagonal_inertia(
-    const StateVectorT<T>& x, const Matrix3<T>& R, const Vector3<T>& F_B, const Vector3<T>& M_B,
-    double mass_kg, const Vec3& j, const Vec3& j_inv, const Vec3& gravity_W) {
+/// newton_euler() for a diagonal inertia (the model's inertia_is_diagonal()).
+template <class S, class X, class G>
+DRONETWIN_HOT_INLINE StateVectorT<S> newton_euler_diagonal_inertia(
+    const StateVectorT<X>& x, const Matrix3<X>& R, const Vector3<S>& F_B, const Vector3<S>& M_B,
+    const S& mass_kg, const Vector3<S>& j, const Vector3<S>& j_inv, const Vector3<G>& gravity_W) {
   using namespace state_index;
-  const Vector3<T> w = x.template segment<3>(kAngularVelocity);
-  StateVectorT<T> d;
-  d.template segment<3>(kPosition) = x.template segment<3>(kVelocity);
-  d.template segment<3>(kVelocity) = R * F_B / T(mass_kg) + gravity_W.cast<T>();
-  d.template segment<4>(kQuaternion) = math::derivative<T>(x.template segment<4>(kQuaternion), w);
-  const Vector3<T> Jw = j.cast<T>().cwiseProduct(w);
-  d.template segment<3>(kAngularVelocity) = j_inv.cast<T>().cwiseProduct(M_B - w.cross(Jw));
+  const Vector3<X> w = x.template segment<3>(kAngularVelocity);
+  StateVectorT<S> d;
+  d.template segment<3>(kPosition) = x.template segment<3>(kVelocity).template cast<S>();
+  d.template segment<3>(kVelocity) = R * F_B / mass_kg + gravity_W;
+  d.template segment<4>(kQuaternion) =
+      math::derivative<X>(x.template segment<4>(kQuaternion), w).template cast<S>();
+  d.template segment<3>(kAngularVelocity) = angular_acceleration_diagonal(j, j_inv, w, M_B);
   return d;
 }
 
@@ -52,7 +78,7 @@ inline void normalize_quaternion(StateVector& x) {
   x.segment<4>(state_index::kQuaternion).normalize();
 }
 
-/// Rotational kinetic energy 1/2 w^T J w and world-frame angular momentum R J w (for tests).
+/// Rotational kinetic energy 1/2 w^T J w (for tests).
 inline double rotational_energy(const StateVector& x, const Mat3& inertia) {
   const Vec3 w = x.segment<3>(state_index::kAngularVelocity);
   return 0.5 * w.dot(inertia * w);

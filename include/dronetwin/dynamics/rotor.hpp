@@ -1,74 +1,102 @@
 #pragma once
-// Forces and moments of one rotor (thesis Sec. 2.3.1-2.3.2, Eq. 2.22-2.37).
+// Forces and moments of one rotor (thesis Sec. 2.3.1-2.3.2, Eq. 2.22-2.34), each written once, in
+// the form the force kernel (force_kernel.hpp) folds together: over a physics step the rotor speed
+// w is held, so every rotor term is either
+//   - a constant times the rotor's thrust T(w)  (thrust, yaw reaction, drag moment),
+//   - |w| times a linear map of the body air velocity and body rate  (rotor drag, rolling moment),
+//   - or the thrust scaled by a function of the hub height  (ground effect).
+// Wrenches are [F_B; M_B] in the body frame about the centre of mass: a force F acting at the hub
+// r contributes the moment r x F.
 //
-// Inputs are the rotor's parameters, its speed magnitude w (rad/s, held over a physics step),
-// the air velocity at the hub projected into the rotor plane, and the hub height. Outputs are
-// body-frame vectors. Each function is one physical term so tests can check it by hand:
+//   const RotorParams& r = model.rotor(0);
+//   Vector6<double> F = r.thrust(1200.0) * axial_force_wrench(r.position_m, r.axis);  // Eq. 2.22
+//   Matrix6<double> D = rotor_drag_map(r.position_m, r.axis);   // times C_D |w| [v_air_B; w_B]
 //
-//   RotorParams r = model.rotor(0);
-//   Vec3 F = rotor_drag_force<double>(r, 1200.0, v_perp_B);   // -|w| C_D v_perp
-//
-// Templated on the scalar for automatic differentiation. Trap: `w` is a magnitude; the turning
-// direction is r.spin (thesis Eq. 2.24 sign convention, see docs/conventions.md).
+// Templated on the scalar (double, float, ceres::Jet, SIMD packs). Trap: w is a magnitude; the
+// turning direction is r.spin (thesis Eq. 2.24 sign convention, see docs/conventions.md).
 
-#include <algorithm>
-
+#include "dronetwin/core/scalar.hpp"
 #include "dronetwin/core/types.hpp"
 #include "dronetwin/model/rotor_params.hpp"
 
 namespace dronetwin {
 
-/// Air velocity of the hub in the rotor plane: v_perp = v - (a.v) a (Eq. 2.33 for a unit axis a).
 template <class T>
-Vector3<T> in_plane(const Vector3<T>& v_hub_B, const Vec3& axis_B) {
-  const Vector3<T> a = axis_B.cast<T>();
-  return v_hub_B - a * a.dot(v_hub_B);
+using Vector6 = Eigen::Matrix<T, 6, 1>;
+template <class T>
+using Matrix6 = Eigen::Matrix<T, 6, 6>;
+
+/// [a; r x a]: the wrench of a unit force along the rotor axis a acting at the hub r. The thrust
+/// T(w) a (Eq. 2.22, its moment Eq. 2.27) and the ground-effect force (appendix C.2) act along it.
+template <class V>
+Vector6<V> axial_force_wrench(const Vector3<V>& position_m, const Vector3<V>& axis) {
+  Vector6<V> w;
+  w << axis, position_m.cross(axis);
+  return w;
 }
 
-/// Hub air velocity in the body frame: v_air_B + w_B x r_i (rigid-body velocity of the hub).
-template <class T>
-Vector3<T> hub_air_velocity(const Vector3<T>& v_air_B, const Vector3<T>& w_B, const Vec3& r_B) {
-  return v_air_B + w_B.cross(r_B.cast<T>());
+/// Reaction (yaw) moment about the axis per unit thrust: +eps / K_tau (Eq. 2.24).
+template <class S>
+S yaw_reaction_per_thrust(const RotorParamsTpl<S>& r) {
+  using V = typename RotorParamsTpl<S>::Value;
+  return V(r.spin) * r.yaw_moment_per_thrust_m;
 }
 
-/// Thrust force T(w) a (Eq. 2.22). May be slightly negative at low speed ('K3 < 0), as printed.
-template <class T>
-Vector3<T> thrust_force(const RotorParams& r, double w) {
-  return T(r.thrust(w)) * r.axis.cast<T>();
+/// Drag moment about the axis per unit thrust: -eps C_MD (Eq. 2.32, M_D = -eps C_MD T a).
+template <class S>
+S drag_moment_per_thrust(const RotorParamsTpl<S>& r) {
+  using V = typename RotorParamsTpl<S>::Value;
+  return V(-r.spin) * r.drag_moment_coefficient;
 }
 
-/// Reaction (yaw) moment +eps T / K_tau about the axis (Eq. 2.24).
-template <class T>
-Vector3<T> yaw_reaction_moment(const RotorParams& r, double thrust_N) {
-  return T(r.spin * r.yaw_moment_per_thrust_m * thrust_N) * r.axis.cast<T>();
+namespace detail {
+/// [v_perp] = P [I, -[r]x] [v; w]: the hub's air velocity in the rotor plane as a linear map of
+/// the body air velocity v and body rate w. v_hub = v + w x r = v - [r]x w (Eq. 2.33), and
+/// P = I - a a^T removes the axial part.
+template <class V>
+Eigen::Matrix<V, 3, 6> in_plane_hub_velocity_map(const Vector3<V>& r, const Vector3<V>& a) {
+  const Matrix3<V> plane = Matrix3<V>::Identity() - a * a.transpose();
+  Matrix3<V> r_hat;
+  r_hat << V(0), -r.z(), r.y(), r.z(), V(0), -r.x(), -r.y(), r.x(), V(0);
+  Eigen::Matrix<V, 3, 6> map;
+  map << plane, -plane * r_hat;
+  return map;
+}
+template <class V>
+Matrix3<V> cross_matrix(const Vector3<V>& r) {
+  Matrix3<V> r_hat;
+  r_hat << V(0), -r.z(), r.y(), r.z(), V(0), -r.x(), -r.y(), r.x(), V(0);
+  return r_hat;
+}
+}  // namespace detail
+
+/// Rotor (blade-flapping) drag per unit C_D |w| (Eq. 2.32): the force F = -C_D |w| v_perp acts at
+/// the hub, so [F; r x F] = C_D |w| * rotor_drag_map(r, a) * [v_air_B; w_B].
+template <class V>
+Matrix6<V> rotor_drag_map(const Vector3<V>& position_m, const Vector3<V>& axis) {
+  const Eigen::Matrix<V, 3, 6> v_perp = detail::in_plane_hub_velocity_map(position_m, axis);
+  Matrix6<V> m;
+  m.template topRows<3>() = -v_perp;
+  m.template bottomRows<3>() = -detail::cross_matrix(position_m) * v_perp;
+  return m;
 }
 
-/// Rotor (blade-flapping) drag F_D = -|w| C_D v_perp (Eq. 2.32), acting at the hub.
-template <class T>
-Vector3<T> rotor_drag_force(const RotorParams& r, double w, const Vector3<T>& v_perp_B) {
-  return T(-std::abs(w) * r.rotor_drag_coefficient) * v_perp_B;
+/// Rolling moment per unit C_R |w| (Eq. 2.32): M_R = C_R |w| v_perp, a pure moment, so
+/// [0; M_R] = C_R |w| * rolling_moment_map(r, a) * [v_air_B; w_B].
+template <class V>
+Matrix6<V> rolling_moment_map(const Vector3<V>& position_m, const Vector3<V>& axis) {
+  Matrix6<V> m = Matrix6<V>::Zero();
+  m.template bottomRows<3>() = detail::in_plane_hub_velocity_map(position_m, axis);
+  return m;
 }
 
-/// Rolling moment M_R = |w| C_R v_perp (Eq. 2.32).
-template <class T>
-Vector3<T> rolling_moment(const RotorParams& r, double w, const Vector3<T>& v_perp_B) {
-  return T(std::abs(w) * r.rolling_moment_coefficient) * v_perp_B;
-}
-
-/// Drag moment M_D = -eps C_MD T a (Eq. 2.32).
-template <class T>
-Vector3<T> drag_moment(const RotorParams& r, double thrust_N) {
-  return T(-r.spin * r.drag_moment_coefficient * thrust_N) * r.axis.cast<T>();
-}
-
-/// Ground effect F_G = C_G T / h^2 along the axis, h = hub height above ground floored at
-/// `min_height_m` (thesis appendix C.2; Eq. 2.34 has no height and is unusable, notes #10).
-template <class T>
-Vector3<T> ground_effect_force(const RotorParams& r, double thrust_N, const T& hub_height_m,
-                               double min_height_m) {
-  using std::max;
-  const T h = max(hub_height_m, T(min_height_m));
-  return (T(r.ground_effect_coefficient * thrust_N) / (h * h)) * r.axis.cast<T>();
+/// Ground-effect force along the axis (thesis appendix C.2; Eq. 2.34 has no height and is
+/// unusable, notes #10): C_G T / h^2 with `gain` = C_G T and h the hub height above the ground,
+/// floored at `min_height_m` so the force stays finite when a hub touches the ground.
+template <class S, class X, class V>
+S ground_effect_force(const S& gain, const X& hub_height_m, const V& min_height_m) {
+  const X h = scalar::max(hub_height_m, X(min_height_m));
+  return gain / (h * h);
 }
 
 }  // namespace dronetwin

@@ -56,6 +56,57 @@ inline constexpr std::array<bool DisturbanceSwitches::*, 6> kDisturbanceSwitchMe
     &DisturbanceSwitches::drag_moment, &DisturbanceSwitches::ground_effect,
     &DisturbanceSwitches::gyroscopic,  &DisturbanceSwitches::body_drag};
 
+/// Which force terms the kernel (force_kernel.hpp) adds up: every term but gravity, by name. A
+/// simulator uses of(switches) (thrust and yaw reaction are always on); the per-term breakdown
+/// evaluates the same kernel with only(term), one term at a time.
+struct ForceTerms {
+  bool thrust = true;
+  bool yaw_reaction = true;
+  bool rotor_drag = true;
+  bool rolling_moment = true;
+  bool drag_moment = true;
+  bool ground_effect = true;
+  bool gyroscopic = true;
+  bool body_drag = true;
+
+  static constexpr ForceTerms of(const DisturbanceSwitches& sw) {
+    return {true,           true,
+            sw.rotor_drag,  sw.rolling_moment,
+            sw.drag_moment, sw.ground_effect,
+            sw.gyroscopic,  sw.body_drag};
+  }
+  /// True when term `t` is on (gravity, not a kernel term, never is).
+  constexpr bool includes(Term t) const {
+    switch (t) {
+      case Term::kThrust:
+        return thrust;
+      case Term::kYawReaction:
+        return yaw_reaction;
+      case Term::kRotorDrag:
+        return rotor_drag;
+      case Term::kRollingMoment:
+        return rolling_moment;
+      case Term::kDragMoment:
+        return drag_moment;
+      case Term::kGroundEffect:
+        return ground_effect;
+      case Term::kGyroscopic:
+        return gyroscopic;
+      case Term::kBodyDrag:
+        return body_drag;
+      case Term::kGravity:
+        return false;
+    }
+    return false;
+  }
+  /// Only `t` (gravity, which is not a kernel term, gives none).
+  static constexpr ForceTerms only(Term t) {
+    return {t == Term::kThrust,        t == Term::kYawReaction, t == Term::kRotorDrag,
+            t == Term::kRollingMoment, t == Term::kDragMoment,  t == Term::kGroundEffect,
+            t == Term::kGyroscopic,    t == Term::kBodyDrag};
+  }
+};
+
 template <class T>
 struct Wrench {
   Vector3<T> force_B = Vector3<T>::Zero();

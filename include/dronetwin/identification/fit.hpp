@@ -1,6 +1,7 @@
 #pragma once
 // Parameter identification from a logged flight: the model's own force model
-// (parametric_dynamics.hpp) is fitted to the log with Ceres, in up to three ways.
+// (through parameter_map.hpp and the force kernel) is fitted to the log with Ceres, in up to three
+// ways.
 //
 //   equation error   the acceleration between two rows, (v_{k+1} - v_k)/dt and
 //                    (w_{k+1} - w_k)/dt, against the model's mean acceleration over the interval

@@ -1,54 +1,103 @@
 #pragma once
 // Parameters of one rotor (propeller + motor), as written in a vehicle model file.
 // All quantities SI; the thesis symbols are given for the QDrone2 (thesis Table 2.1).
+//
+// Templated on the scalar S of the coefficients a fit estimates or a batch varies per vehicle
+// (thrust curve, moment and drag coefficients, rotor inertia, motor time constants), so the same
+// rotor can carry ceres::Jet coefficients in a fit or one value per lane in a SIMD pack. The
+// geometry (hub position, axis, spin) and the speed limits are what the airframe is: plain
+// numbers of S's value type (double for double, Jet and double packs), shared by every cast.
+//
+//   RotorParams r = model.rotor(0);                  // RotorParamsTpl<double>
+//   double T = r.thrust(1200.0);                     // Eq. 2.22
+//   RotorParamsTpl<ceres::Jet<double, 4>> j = r.cast<ceres::Jet<double, 4>>();
 
 #include <array>
 
+#include "dronetwin/core/scalar.hpp"
 #include "dronetwin/core/types.hpp"
 
 namespace dronetwin {
 
-struct RotorParams {
+/// The thrust polynomial of thesis Eq. 2.22, T(w) = c[0] w^2 + c[1] w + c[2], in Horner form.
+/// `w` may be plain (a logged speed) while the coefficients carry derivatives, or both packs.
+template <class S, class W>
+S thrust_polynomial(const std::array<S, 3>& c, const W& w) {
+  return (c[0] * w + c[1]) * w + c[2];
+}
+
+template <class S>
+struct RotorParamsTpl {
+  using Scalar = S;
+  using Value = scalar::value_type_t<S>;
+
   /// Hub position relative to the centre of mass, body frame, m (thesis Eq. 2.25, z from SDF).
-  Vec3 position_m = Vec3::Zero();
+  Vector3<Value> position_m = Vector3<Value>::Zero();
   /// Thrust direction in the body frame; normalised when the model is loaded. Tilted rotors
   /// allowed.
-  Vec3 axis = Vec3::UnitZ();
+  Vector3<Value> axis = Vector3<Value>::UnitZ();
   /// Turning direction epsilon_i in {+1, -1}. Sign convention of thesis Eq. 2.24: the reaction
   /// (yaw) moment of this rotor is +epsilon_i * T_i / K_tau about its axis.
   int spin = 1;
   /// Thrust polynomial T(w) = c[0] w^2 + c[1] w + c[2]  ('K1 [N s^2/rad^2], 'K2 [N s/rad], 'K3
   /// [N]), thesis Eq. 2.22.
-  std::array<double, 3> thrust_coefficients{0.0, 0.0, 0.0};
+  std::array<S, 3> thrust_coefficients{S(0), S(0), S(0)};
   /// Reaction moment per unit thrust, 1/K_tau, m (thesis Eq. 2.23).
-  double yaw_moment_per_thrust_m = 0.0;
+  S yaw_moment_per_thrust_m = S(0);
   /// Rotor (blade-flapping) drag C_D: F_D = -|w| C_D v_perp, N s^2/(rad m) (thesis Eq. 2.32).
-  double rotor_drag_coefficient = 0.0;
+  S rotor_drag_coefficient = S(0);
   /// Rolling moment C_R: M_R = |w| C_R v_perp, N s^2/rad (thesis Eq. 2.32).
-  double rolling_moment_coefficient = 0.0;
+  S rolling_moment_coefficient = S(0);
   /// Drag moment C_MD: M_D = -epsilon C_MD T axis, m (thesis Eq. 2.32).
-  double drag_moment_coefficient = 0.0;
+  S drag_moment_coefficient = S(0);
   /// Ground effect C_G: F_G = C_G T / h^2 along the axis, m^2 (thesis appendix C.2 form).
-  double ground_effect_coefficient = 0.0;
+  S ground_effect_coefficient = S(0);
   /// Spinning-part inertia about the axis, kg m^2 (gyroscopic moment, thesis Eq. 2.35).
-  double inertia_kgm2 = 0.0;
+  S inertia_kgm2 = S(0);
   /// Motor first-order lag constants, s (thesis Eq. 2.43-2.45).
-  double time_constant_rise_s = 0.0;
-  double time_constant_fall_s = 0.0;
+  S time_constant_rise_s = S(0);
+  S time_constant_fall_s = S(0);
   /// Rotor speed limits, rad/s (speeds are magnitudes; the spin sign is `spin`).
-  double min_speed_rad_s = 0.0;
-  double max_speed_rad_s = 0.0;
+  Value min_speed_rad_s = Value(0);
+  Value max_speed_rad_s = Value(0);
 
   /// Thrust T(w) in N for speed w in rad/s (thesis Eq. 2.22).
-  template <class T>
-  T thrust(const T& w) const {
-    return (T(thrust_coefficients[0]) * w + T(thrust_coefficients[1])) * w +
-           T(thrust_coefficients[2]);
+  template <class W>
+  S thrust(const W& w) const {
+    return thrust_polynomial(thrust_coefficients, w);
   }
 
   /// Inverse of the thrust polynomial on [min_speed, max_speed]: the speed that gives
   /// `thrust_N`, clamped to the speed limits. Closed form (positive root of the quadratic).
-  double speed_for_thrust(double thrust_N) const;
+  /// Only for plain double rotors (the allocation and the hover trim use it).
+  double speed_for_thrust(double thrust_N) const requires std::is_same_v<S, double>;
+
+  /// The same rotor with coefficients of scalar S2 (geometry and limits unchanged). From double
+  /// only: a Jet's derivatives or a pack's lanes have no single value to carry over.
+  template <class S2>
+  RotorParamsTpl<S2> cast() const requires std::is_arithmetic_v<S> {
+    using V2 = typename RotorParamsTpl<S2>::Value;
+    RotorParamsTpl<S2> r;
+    r.position_m = position_m.template cast<V2>();
+    r.axis = axis.template cast<V2>();
+    r.spin = spin;
+    for (std::size_t k = 0; k < 3; ++k)
+      r.thrust_coefficients[k] = scalar::from_value<S2>(thrust_coefficients[k]);
+    r.yaw_moment_per_thrust_m = scalar::from_value<S2>(yaw_moment_per_thrust_m);
+    r.rotor_drag_coefficient = scalar::from_value<S2>(rotor_drag_coefficient);
+    r.rolling_moment_coefficient = scalar::from_value<S2>(rolling_moment_coefficient);
+    r.drag_moment_coefficient = scalar::from_value<S2>(drag_moment_coefficient);
+    r.ground_effect_coefficient = scalar::from_value<S2>(ground_effect_coefficient);
+    r.inertia_kgm2 = scalar::from_value<S2>(inertia_kgm2);
+    r.time_constant_rise_s = scalar::from_value<S2>(time_constant_rise_s);
+    r.time_constant_fall_s = scalar::from_value<S2>(time_constant_fall_s);
+    r.min_speed_rad_s = static_cast<V2>(min_speed_rad_s);
+    r.max_speed_rad_s = static_cast<V2>(max_speed_rad_s);
+    return r;
+  }
 };
+
+/// A rotor with plain double coefficients: what a model file holds.
+using RotorParams = RotorParamsTpl<double>;
 
 }  // namespace dronetwin

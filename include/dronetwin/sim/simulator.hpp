@@ -18,15 +18,21 @@
 // motors advanced toward the reference, noise advanced, divergence checked. A new reference
 // therefore acts on the forces from the next step on.
 //
-// Trap: a step that produces a non-finite or out-of-bounds state is not committed; the simulator
-// enters the failed state (status() says why) and step() throws until reset().
+// The forces come from the one force kernel (dynamics/force_kernel.hpp): its per-model constants
+// are built when the simulator is (and when the switches change) and shared by its copies; each
+// step prepares the rotor-speed dependent terms once and evaluates them at the RK4 stages.
+//
+// Trap: a step that produces a non-finite or out-of-bounds state commits nothing (state, rotor
+// speeds, contact, noise and time stay as they were); the simulator enters the failed state
+// (status() and failure_message() say why) and step() throws until reset().
 
 #include <memory>
 #include <string>
 #include <string_view>
 
 #include "dronetwin/core/types.hpp"
-#include "dronetwin/dynamics/held_rotor_wrench.hpp"
+#include "dronetwin/dynamics/force_kernel.hpp"
+#include "dronetwin/dynamics/ground.hpp"
 #include "dronetwin/dynamics/motor.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
@@ -38,15 +44,36 @@ namespace dronetwin {
 
 enum class StepStatus {
   kOk,
-  kNonFinite,  ///< the integrated state had NaN or inf
-  kDiverged,   ///< position, speed or angular speed beyond SimConfig::divergence
+  kNonFinite,         ///< the integrated state had NaN or inf
+  kDiverged,          ///< position, speed or angular speed beyond SimConfig::divergence
+  kControllerFailed,  ///< the controller flying it threw or returned non-finite output
 };
 
 constexpr std::string_view status_name(StepStatus s) {
-  return s == StepStatus::kOk ? "ok" : (s == StepStatus::kNonFinite ? "non_finite" : "diverged");
+  switch (s) {
+    case StepStatus::kOk:
+      return "ok";
+    case StepStatus::kNonFinite:
+      return "non_finite";
+    case StepStatus::kDiverged:
+      return "diverged";
+    case StepStatus::kControllerFailed:
+      return "controller_failed";
+  }
+  return "unknown";
 }
 
-/// Everything that changes while a simulator runs.
+/// Why a step was refused, as numbers (SimData stays plain data); Simulator::failure_message()
+/// turns it into text.
+struct StepFailure {
+  /// Time and step number the refused step would have reached.
+  double time_s = 0.0;
+  std::int64_t step = 0;
+  /// |p|, |v|, |w| of the refused state (NaN when it was non-finite).
+  double position_m = 0.0, speed_m_s = 0.0, angular_speed_rad_s = 0.0;
+};
+
+/// Everything that changes while a simulator runs. Plain data: no heap, copyable as bytes.
 struct SimData {
   double time_s = 0.0;
   std::int64_t step_count = 0;
@@ -61,7 +88,7 @@ struct SimData {
   Random rng;
   ContactState contact;
   StepStatus status = StepStatus::kOk;
-  std::string failure_message;
+  StepFailure failure;
 };
 
 struct StepResult {
@@ -129,7 +156,8 @@ class Simulator {
   WrenchBreakdown wrench_breakdown() const;
   const ContactState& contact() const { return data_.contact; }
   StepStatus status() const { return data_.status; }
-  const std::string& failure_message() const { return data_.failure_message; }
+  /// Why the run failed ("state diverged at t = ...: |v| = ... (limit ...)"); empty while ok.
+  std::string failure_message() const;
   const SimData& data() const { return data_; }
   /// Direct access for bindings that expose the state as a view; call set_state() semantics
   /// yourself (finite values, unit quaternion).
@@ -145,12 +173,15 @@ class Simulator {
 
  private:
   void check_rotor_vector(const RotorVector& v, const char* what) const;
-  StepStatus check_state(const StateVector& x, std::string& message) const;
+  StepStatus check_state(const StateVector& x) const;
 
   std::shared_ptr<const VehicleModel> model_;
   SimConfig config_;
   MotorDiscretization motors_;
-  HeldRotorWrench held_;
+  /// The force kernel for the model and config().disturbances (shared by copies).
+  std::shared_ptr<const ForceKernel<double>> kernel_;
+  /// Scratch of the current step (the rotor-speed dependent terms); not state.
+  HeldRotorTerms<double> held_;
   SimData data_;
 };
 
