@@ -222,6 +222,38 @@ TEST(Simulator, DivergenceIsDetectedAndTheRunStops) {
   EXPECT_TRUE(sim.step().ok());
 }
 
+TEST(Simulator, ARefusedStepCommitsNothing) {
+  // A step that both touches the ground and diverges: the touchdown it would have counted, the
+  // rotor speeds, noise, time and state all stay as they were.
+  SimConfig cfg;
+  cfg.divergence.max_position_m = 1.0;
+  cfg.noise.enabled = true;
+  const auto model = test::load_model("qdrone2");
+  Simulator sim(model, cfg);
+  StateVector x = Simulator::hover_state(Vec3(0.9995, 0, 0.0005));
+  x[3] = 2.0;   // just inside the position limit, past it after the step
+  x[5] = -2.0;  // and falling onto the ground within the step
+  RotorVector ref(4);
+  ref << 3400.0, 0.0, 3400.0, 0.0;
+  sim.reset(x, ref);
+  const SimData before = sim.data();
+  const StepResult r = sim.step();
+  ASSERT_EQ(r.status, StepStatus::kDiverged);
+  EXPECT_EQ(r.steps_taken, 0);
+  const SimData& after = sim.data();
+  EXPECT_EQ(after.contact.touchdowns, before.contact.touchdowns);
+  EXPECT_EQ(after.contact.in_contact, before.contact.in_contact);
+  EXPECT_EQ(after.contact.max_touchdown_speed_m_s, before.contact.max_touchdown_speed_m_s);
+  EXPECT_EQ(after.state, before.state);
+  EXPECT_EQ(after.measured_state, before.measured_state);
+  EXPECT_EQ(after.rotor_speed_rad_s, before.rotor_speed_rad_s);
+  EXPECT_EQ(after.state_noise.value(), before.state_noise.value());
+  EXPECT_EQ(after.step_count, before.step_count);
+  EXPECT_EQ(after.time_s, before.time_s);
+  EXPECT_EQ(after.failure.step, 1);
+  EXPECT_GT(after.failure.position_m, 1.0);
+}
+
 TEST(Simulator, NonFiniteStateIsDetected) {
   Simulator sim = hovering(SimConfig{}, 1.0);
   sim.mutable_data().state[3] = std::nan("");  // bypasses set_state's checks on purpose
