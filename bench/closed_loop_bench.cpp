@@ -7,9 +7,10 @@
 #include <memory>
 #include <string>
 
+#include "dronetwin/app/controller_registry.hpp"
+#include "dronetwin/config/controller_config.hpp"
+#include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/control/closed_loop.hpp"
-#include "dronetwin/io/controller_config.hpp"
-#include "dronetwin/io/model_loader.hpp"
 
 namespace {
 

@@ -13,10 +13,10 @@
 #include <memory>
 #include <string>
 
+#include "dronetwin/app/run_experiment.hpp"
+#include "dronetwin/config/experiment.hpp"
+#include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/identification/fit.hpp"
-#include "dronetwin/io/experiment.hpp"
-#include "dronetwin/io/model_loader.hpp"
-#include "dronetwin/io/run_experiment.hpp"
 
 namespace {
 

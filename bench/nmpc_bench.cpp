@@ -12,10 +12,11 @@
 #include <string>
 #include <vector>
 
+#include "dronetwin/app/controller_registry.hpp"
+#include "dronetwin/config/controller_config.hpp"
+#include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/control/closed_loop.hpp"
-#include "dronetwin/control/nmpc.hpp"
-#include "dronetwin/io/controller_config.hpp"
-#include "dronetwin/io/model_loader.hpp"
+#include "dronetwin/nmpc/nmpc.hpp"
 
 namespace {
 
@@ -29,9 +30,10 @@ void run(benchmark::State& state, int horizon_steps) {
   cfg.noise.enabled = true;
   Simulator sim(model, cfg);
   ControllerConfig c = load_controller_config(root + "/config/controllers/nmpc.yaml");
-  if (horizon_steps != c.nmpc_options.horizon_steps) {
-    c.nmpc_options.horizon_steps = horizon_steps;
-    c.nmpc_options.input_blocks = {1, 1, 2, 4, 4, 8};  // 20 steps in 6 blocks
+  if (horizon_steps != std::get<NmpcSettings>(c.settings).options.horizon_steps) {
+    std::get<NmpcSettings>(c.settings).options.horizon_steps = horizon_steps;
+    std::get<NmpcSettings>(c.settings).options.input_blocks = {1, 1, 2,
+                                                               4, 4, 8};  // 20 steps in 6 blocks
   }
   auto controller = make_controller(c, model, 1000.0);
   auto& nmpc = dynamic_cast<NmpcController&>(*controller);

@@ -5,7 +5,7 @@
 
 #include <memory>
 
-#include "dronetwin/io/model_loader.hpp"
+#include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/sim/simulator.hpp"
 
 namespace {

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/core/error.hpp"
-#include "dronetwin/io/model_loader.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
 #include "dronetwin/noise/random.hpp"

@@ -3,7 +3,7 @@
 #include <cstdio>
 #include <memory>
 
-#include "dronetwin/io/model_loader.hpp"
+#include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/sim/simulator.hpp"
 
 int main(int argc, char** argv) {

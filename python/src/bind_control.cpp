@@ -11,12 +11,12 @@
 #include "bindings.hpp"
 #include "dronetwin/control/closed_loop.hpp"
 #include "dronetwin/control/controller_base.hpp"
-#include "dronetwin/control/nmpc.hpp"
 #include "dronetwin/control/pid.hpp"
 #include "dronetwin/control/reference.hpp"
 #include "dronetwin/control/se3.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "dronetwin/nmpc/nmpc.hpp"
 
 namespace dronetwin::python {
 

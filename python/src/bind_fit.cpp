@@ -5,7 +5,7 @@
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/identification/fit.hpp"
 #include "dronetwin/identification/model_parameters.hpp"
-#include "dronetwin/io/csv_log.hpp"
+#include "dronetwin/logging/csv_log.hpp"
 
 namespace dronetwin::python {
 

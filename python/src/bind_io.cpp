@@ -2,11 +2,13 @@
 // controller files, and run logs read into numpy arrays with their JSON sidecar (LogMetadata).
 
 #include "bindings.hpp"
-#include "dronetwin/io/controller_config.hpp"
-#include "dronetwin/io/csv_log.hpp"
-#include "dronetwin/io/experiment.hpp"
-#include "dronetwin/io/log_metadata.hpp"
-#include "dronetwin/io/run_experiment.hpp"
+#include "dronetwin/app/controller_registry.hpp"
+#include "dronetwin/app/run_experiment.hpp"
+#include "dronetwin/config/controller_config.hpp"
+#include "dronetwin/config/experiment.hpp"
+#include "dronetwin/config/log_metadata_reader.hpp"
+#include "dronetwin/logging/csv_log.hpp"
+#include "dronetwin/logging/log_metadata.hpp"
 
 namespace dronetwin::python {
 

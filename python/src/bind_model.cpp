@@ -3,7 +3,7 @@
 // and the allocation.
 
 #include "bindings.hpp"
-#include "dronetwin/io/model_loader.hpp"
+#include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/model/allocation.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
 

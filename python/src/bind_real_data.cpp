@@ -2,14 +2,14 @@
 // CrazyPAD flights, and the importers that turn them into dronetwin logs.
 
 #include "bindings.hpp"
+#include "dronetwin/adapters/crazyflie_csv.hpp"
+#include "dronetwin/adapters/crazypad_import.hpp"
+#include "dronetwin/adapters/thrust_stand_fit.hpp"
+#include "dronetwin/adapters/ulog.hpp"
+#include "dronetwin/adapters/ulog_import.hpp"
 #include "dronetwin/identification/linear_fit.hpp"
-#include "dronetwin/identification/thrust_stand_fit.hpp"
 #include "dronetwin/identification/vertical_fit.hpp"
-#include "dronetwin/io/crazyflie_csv.hpp"
-#include "dronetwin/io/crazypad_import.hpp"
-#include "dronetwin/io/csv_log.hpp"
-#include "dronetwin/io/ulog.hpp"
-#include "dronetwin/io/ulog_import.hpp"
+#include "dronetwin/logging/csv_log.hpp"
 
 namespace dronetwin::python {
 

@@ -7,7 +7,7 @@
 #include <sstream>
 
 #include "bindings.hpp"
-#include "dronetwin/io/run_experiment.hpp"
+#include "dronetwin/app/run_experiment.hpp"
 
 namespace dronetwin::python {
 

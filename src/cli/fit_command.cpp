@@ -5,11 +5,12 @@
 #include <fstream>
 #include <iostream>
 
+#include "dronetwin/config/log_metadata_reader.hpp"
+#include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/identification/fit.hpp"
-#include "dronetwin/io/csv_log.hpp"
-#include "dronetwin/io/log_metadata.hpp"
-#include "dronetwin/io/model_loader.hpp"
+#include "dronetwin/logging/csv_log.hpp"
+#include "dronetwin/logging/log_metadata.hpp"
 
 namespace dronetwin::cli {
 namespace {

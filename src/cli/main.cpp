@@ -29,10 +29,10 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "dronetwin/app/run_experiment.hpp"
+#include "dronetwin/config/experiment.hpp"
+#include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/core/error.hpp"
-#include "dronetwin/io/experiment.hpp"
-#include "dronetwin/io/model_loader.hpp"
-#include "dronetwin/io/run_experiment.hpp"
 #include "fit_command.hpp"
 #include "real_data_commands.hpp"
 

@@ -7,14 +7,14 @@
 #include <iostream>
 #include <numbers>
 
+#include "dronetwin/adapters/crazyflie_csv.hpp"
+#include "dronetwin/adapters/crazypad_import.hpp"
+#include "dronetwin/adapters/thrust_stand_fit.hpp"
+#include "dronetwin/adapters/ulog_import.hpp"
+#include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/core/error.hpp"
-#include "dronetwin/identification/thrust_stand_fit.hpp"
 #include "dronetwin/identification/vertical_fit.hpp"
-#include "dronetwin/io/crazyflie_csv.hpp"
-#include "dronetwin/io/crazypad_import.hpp"
-#include "dronetwin/io/csv_log.hpp"
-#include "dronetwin/io/model_loader.hpp"
-#include "dronetwin/io/ulog_import.hpp"
+#include "dronetwin/logging/csv_log.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
 
 namespace dronetwin::cli {

@@ -16,10 +16,11 @@
 #include <string>
 #include <tuple>
 
+#include "dronetwin/app/controller_registry.hpp"
+#include "dronetwin/config/controller_config.hpp"
 #include "dronetwin/control/se3.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/dynamics/ground.hpp"
-#include "dronetwin/io/controller_config.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "test_support.hpp"
 

@@ -18,11 +18,12 @@
 #include <string>
 #include <vector>
 
+#include "dronetwin/app/controller_registry.hpp"
+#include "dronetwin/config/controller_config.hpp"
 #include "dronetwin/control/controller_base.hpp"
 #include "dronetwin/control/pid.hpp"
 #include "dronetwin/control/se3.hpp"
 #include "dronetwin/core/error.hpp"
-#include "dronetwin/io/controller_config.hpp"
 #include "test_support.hpp"
 
 namespace dronetwin {

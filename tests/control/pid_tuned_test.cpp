@@ -15,10 +15,11 @@
 #include <numbers>
 #include <string>
 
+#include "dronetwin/app/controller_registry.hpp"
+#include "dronetwin/config/controller_config.hpp"
 #include "dronetwin/control/closed_loop.hpp"
 #include "dronetwin/control/reference.hpp"
 #include "dronetwin/dynamics/ground.hpp"
-#include "dronetwin/io/controller_config.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "test_support.hpp"
 
@@ -145,9 +146,9 @@ TEST(PidTuned, AttitudeLoopIsFastAndWellDamped) {
   // faster than the horizontal position loop s^2 + g K_D s + g K_P.
   const auto model = test::load_model("qdrone2");
   const ControllerConfig cfg = load_controller_config(test::source_path(kConfig));
-  ASSERT_EQ(cfg.type, ControllerType::kPid);
-  EXPECT_LE(cfg.pid_options.max_tilt_rad, 0.6);
-  const PidGains& g = cfg.pid_gains;
+  ASSERT_EQ(cfg.type(), ControllerType::kPid);
+  EXPECT_LE(std::get<PidSettings>(cfg.settings).options.max_tilt_rad, 0.6);
+  const PidGains& g = std::get<PidSettings>(cfg.settings).gains;
   for (int axis = 0; axis < 2; ++axis) {
     SCOPED_TRACE(axis == 0 ? "roll / y" : "pitch / x");
     const double j = model->inertia_kgm2()(axis, axis) + g.inner_d2[axis];

@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "dronetwin/io/experiment.hpp"
-#include "dronetwin/io/run_experiment.hpp"
+#include "dronetwin/app/run_experiment.hpp"
+#include "dronetwin/config/experiment.hpp"
 #include "test_support.hpp"
 
 namespace dronetwin {

@@ -9,10 +9,10 @@
 #include <cmath>
 #include <string>
 
+#include "dronetwin/adapters/crazyflie_csv.hpp"
+#include "dronetwin/adapters/crazypad_import.hpp"
+#include "dronetwin/adapters/thrust_stand_fit.hpp"
 #include "dronetwin/core/error.hpp"
-#include "dronetwin/identification/thrust_stand_fit.hpp"
-#include "dronetwin/io/crazyflie_csv.hpp"
-#include "dronetwin/io/crazypad_import.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/noise/random.hpp"
 #include "test_support.hpp"

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/core/error.hpp"
-#include "dronetwin/io/model_loader.hpp"
 
 namespace dronetwin {
 namespace {

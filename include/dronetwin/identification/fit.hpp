@@ -41,7 +41,7 @@
 #include "dronetwin/dynamics/environment.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
 #include "dronetwin/identification/model_parameters.hpp"
-#include "dronetwin/io/csv_log.hpp"
+#include "dronetwin/logging/csv_log.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
 
 namespace dronetwin {

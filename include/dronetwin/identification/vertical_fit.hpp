@@ -22,7 +22,7 @@
 #include <string>
 
 #include "dronetwin/identification/linear_fit.hpp"
-#include "dronetwin/io/csv_log.hpp"
+#include "dronetwin/logging/csv_log.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
 
 namespace dronetwin {

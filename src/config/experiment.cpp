@@ -1,0 +1,692 @@
+// Strict YAML binding of Experiment (format: docs/experiment-format.md), on the shared strict
+// reader of yaml_strict.hpp. Every error starts with the source file and names the field path.
+#include "dronetwin/config/experiment.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <utility>
+#include <vector>
+
+#include "dronetwin/config/controller_config.hpp"
+#include "dronetwin/core/error.hpp"
+#include "dronetwin/logging/text_file.hpp"
+#include "dronetwin/math/quaternion.hpp"
+#include "yaml_strict.hpp"
+
+namespace dronetwin {
+namespace {
+
+namespace fs = std::filesystem;
+
+using io_detail::child_path;
+using io_detail::describe;
+using io_detail::format_number;
+using io_detail::item_path;
+using io_detail::Map;
+using io_detail::name_list;
+using io_detail::Reader;
+
+using Names = std::vector<std::string_view>;
+
+// ---- key tables -------------------------------------------------------------------------------
+
+const Names kTopLevelKeys = {
+    "name",       "description",    "model", "seed",     "duration_s",   "physics_dt_s",
+    "integrator", "motor_dynamics", "noise", "wind_m_s", "gravity_m_s2", "disturbances",
+    "ground",     "initial_state",  "log",   "metrics",  "input"};
+const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
+const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
+const Names kBlockKeys = {"a", "b"};
+const Names kDisturbanceKeys(kDisturbanceSwitchNames.begin(), kDisturbanceSwitchNames.end());
+const Names kGroundKeys = {"enabled", "crash_speed_m_s", "crash_tilt_rad"};
+const Names kInitialStateKeys = {"position_m",  "velocity_m_s",           "quaternion_wxyz",
+                                 "euler_rad",   "angular_velocity_rad_s", "rotor_speeds_rad_s",
+                                 "on_reference"};
+const Names kLogKeys = {"every_n_steps", "wrench_breakdown", "measured"};
+const Names kMetricsKeys = {"window_s"};
+// In the order of the ExperimentInput alternatives (input_type_name() indexes it).
+const Names kInputTypes = {"constant_rotor_speeds", "piecewise_rotor_speeds",
+                           "constant_generalized_force", "hover", "controller"};
+static_assert(std::variant_size_v<ExperimentInput> == 5,
+              "a new input kind needs a name in kInputTypes and a branch in read_input(), "
+              "check_against_model() and run_experiment's InputDriver");
+const Names kSegmentKeys = {"start_s", "rotor_speeds_rad_s"};
+const Names kIntegrators = {"rk4", "euler"};
+const Names kDrifts = {"per_sample", "continuous"};
+const Names kAllocations = {"exact", "thesis"};
+const Names kControllerInputKeys = {"type",       "controller", "control_rate_hz",
+                                    "allocation", "real_time",  "reference"};
+const Names kReferenceTypes = {"setpoint", "thesis_pulse", "piecewise",
+                               "circle",   "figure_eight", "waypoints"};
+const Names kSetpointKeys = {"type", "position_m", "yaw_rad"};
+const Names kPiecewiseKeys = {"type", "segments"};
+const Names kPiecewiseSegmentKeys = {"start_s", "position_m", "yaw_rad"};
+const Names kCircleKeys = {"type", "center_m", "radius_m", "period_s", "yaw_rad"};
+const Names kFigureEightKeys = {"type", "center_m", "amplitude_x_m", "amplitude_y_m", "period_s"};
+const Names kWaypointsKeys = {"type", "points"};
+const Names kWaypointKeys = {"time_s", "position_m", "yaw_rad"};
+// Keys that on_reference: true replaces (it sets the whole initial state).
+const Names kOnReferenceExcludes = {"position_m", "velocity_m_s",           "quaternion_wxyz",
+                                    "euler_rad",  "angular_velocity_rad_s", "rotor_speeds_rad_s"};
+
+// ---- sections ---------------------------------------------------------------------------------
+
+/// `hover`, `stopped` or a list of rotor speeds (rad/s, >= 0; the count is checked with the model).
+RotorSpeedSetting read_rotor_speeds(const Reader& rd, const YAML::Node& node,
+                                    const std::string& path) {
+  const std::string expected = "'hover', 'stopped' or a list of rotor speeds in rad/s";
+  if (node.IsScalar()) {
+    if (node.Scalar() == "hover") return RotorSpeedSetting::hover();
+    if (node.Scalar() == "stopped") return RotorSpeedSetting::stopped();
+    rd.fail(node, path, "expected " + expected + ", got " + describe(node));
+  }
+  std::vector<double> v = rd.numbers(node, path, expected);
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (v[i] < 0.0)
+      rd.fail(node[i], item_path(path, i),
+              "expected a rotor speed >= 0 rad/s (speeds are magnitudes; the spin direction is a "
+              "model parameter), got " +
+                  format_number(v[i]));
+  }
+  return RotorSpeedSetting::values(std::move(v));
+}
+
+BlockCoefficients read_block(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  const Map m = rd.map(node, path, kBlockKeys, "a map {a, b} (the block a I + b 1 1^T)");
+  return {rd.number(m.required("a"), m.path("a")), rd.number(m.required("b"), m.path("b"))};
+}
+
+NoiseConfig read_noise(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  NoiseConfig noise;
+  if (node.IsScalar()) {
+    noise.enabled = rd.boolean(node, path);
+    return noise;
+  }
+  const Map m = rd.map(node, path, kNoiseKeys, "true, false or a map of noise settings");
+  noise.enabled = m.has("enabled") ? rd.boolean(m.get("enabled"), m.path("enabled")) : true;
+  if (m.has("drift")) {
+    noise.parameters.drift = rd.choice(m.get("drift"), m.path("drift"), kDrifts, "drift") == 0
+                                 ? OuDrift::kPerSample
+                                 : OuDrift::kContinuous;
+  }
+  if (m.has("theta")) noise.parameters.theta.fill(read_block(rd, m.get("theta"), m.path("theta")));
+  if (m.has("sigma")) noise.parameters.sigma.fill(read_block(rd, m.get("sigma"), m.path("sigma")));
+  return noise;
+}
+
+DisturbanceSwitches read_disturbances(const Reader& rd, const YAML::Node& node,
+                                      const std::string& path) {
+  if (node.IsScalar()) {
+    const Names words = {"none", "all"};
+    return rd.choice(node, path, words, "disturbance set") == 0 ? DisturbanceSwitches::none()
+                                                                : DisturbanceSwitches{};
+  }
+  const Map m = rd.map(node, path, kDisturbanceKeys, "'none', 'all' or a map of switches");
+  DisturbanceSwitches s;
+  for (std::size_t i = 0; i < kDisturbanceSwitchMembers.size(); ++i) {
+    const std::string_view key = kDisturbanceSwitchNames[i];
+    if (m.has(key)) s.*kDisturbanceSwitchMembers[i] = rd.boolean(m.get(key), m.path(key));
+  }
+  return s;
+}
+
+GroundConfig read_ground(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  GroundConfig g;
+  if (node.IsScalar()) {
+    g.enabled = rd.boolean(node, path);
+    return g;
+  }
+  const Map m = rd.map(node, path, kGroundKeys, "true, false or a map of ground settings");
+  if (m.has("enabled")) g.enabled = rd.boolean(m.get("enabled"), m.path("enabled"));
+  if (m.has("crash_speed_m_s"))
+    g.crash_speed_m_s = rd.positive(m.get("crash_speed_m_s"), m.path("crash_speed_m_s"));
+  if (m.has("crash_tilt_rad"))
+    g.crash_tilt_rad = rd.positive(m.get("crash_tilt_rad"), m.path("crash_tilt_rad"));
+  return g;
+}
+
+InitialStateSpec read_initial_state(const Reader& rd, const YAML::Node& node,
+                                    const std::string& path) {
+  const Map m = rd.map(node, path, kInitialStateKeys, "a map of initial-state values");
+  InitialStateSpec s;
+  if (m.has("position_m"))
+    s.position_m = rd.fixed<3>(m.get("position_m"), m.path("position_m"), "x, y, z in m");
+  if (m.has("velocity_m_s"))
+    s.velocity_m_s =
+        rd.fixed<3>(m.get("velocity_m_s"), m.path("velocity_m_s"), "vx, vy, vz in m/s");
+  if (m.has("quaternion_wxyz") && m.has("euler_rad"))
+    rd.fail(m.get("euler_rad"), path, "give either quaternion_wxyz or euler_rad, not both");
+  if (m.has("quaternion_wxyz")) {
+    const YAML::Node q = m.get("quaternion_wxyz");
+    const Vec4 v = rd.fixed<4>(q, m.path("quaternion_wxyz"), "w, x, y, z");
+    const double n = v.norm();
+    if (!(std::abs(n - 1.0) <= 1e-3))
+      rd.fail(q, m.path("quaternion_wxyz"),
+              "expected a unit quaternion (norm 1 within 1e-3), got norm " + format_number(n));
+    s.quaternion_wxyz = v / n;
+  } else if (m.has("euler_rad")) {
+    const Vec3 e = rd.fixed<3>(m.get("euler_rad"), m.path("euler_rad"), "roll, pitch, yaw in rad");
+    s.quaternion_wxyz = math::from_euler(e[0], e[1], e[2]);
+  }
+  if (m.has("angular_velocity_rad_s")) {
+    s.angular_velocity_rad_s = rd.fixed<3>(
+        m.get("angular_velocity_rad_s"), m.path("angular_velocity_rad_s"), "body x, y, z in rad/s");
+  }
+  if (m.has("rotor_speeds_rad_s"))
+    s.rotor_speeds =
+        read_rotor_speeds(rd, m.get("rotor_speeds_rad_s"), m.path("rotor_speeds_rad_s"));
+  if (m.has("on_reference")) {
+    s.on_reference = rd.boolean(m.get("on_reference"), m.path("on_reference"));
+    if (s.on_reference) {
+      for (std::string_view key : kOnReferenceExcludes) {
+        if (m.has(key))
+          rd.fail(m.get(key), m.path(key),
+                  "on_reference: true sets the whole initial state (position and velocity of the "
+                  "reference at t = 0, level at its yaw, hover rotor speeds); remove '" +
+                      std::string(key) + "' or set on_reference: false");
+      }
+    }
+  }
+  return s;
+}
+
+LogSettings read_log(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  const Map m = rd.map(node, path, kLogKeys, "a map of log settings");
+  LogSettings s;
+  if (m.has("every_n_steps")) {
+    const YAML::Node n = m.get("every_n_steps");
+    const long long v = rd.integer<long long>(n, m.path("every_n_steps"), "an integer >= 1");
+    if (v < 1 || v > std::numeric_limits<int>::max())
+      rd.fail(n, m.path("every_n_steps"), "expected an integer >= 1, got " + n.Scalar());
+    s.every_n_steps = static_cast<int>(v);
+  }
+  if (m.has("wrench_breakdown"))
+    s.wrench_breakdown = rd.boolean(m.get("wrench_breakdown"), m.path("wrench_breakdown"));
+  if (m.has("measured")) s.measured = rd.boolean(m.get("measured"), m.path("measured"));
+  return s;
+}
+
+/// The `type:` of a map that selects its kind by it (an input, a reference): its index in `types`.
+std::size_t read_type(const Reader& rd, const YAML::Node& node, const std::string& path,
+                      const Names& types, const std::string& what) {
+  const std::string expected = "a map with a 'type' (" + name_list(types) + ")";
+  if (!node.IsMap()) rd.fail(node, path, "expected " + expected + ", got " + describe(node));
+  YAML::Node type_node(YAML::NodeType::Undefined);
+  for (const auto& kv : node)
+    if (kv.first.IsScalar() && kv.first.Scalar() == "type") type_node = kv.second;
+  if (!type_node.IsDefined())
+    rd.fail(node, path, "missing required key 'type' (" + name_list(types) + ")");
+  return rd.choice(type_node, child_path(path, "type"), types, what);
+}
+
+double read_yaw(const Reader& rd, const Map& m) {
+  return m.has("yaw_rad") ? rd.number(m.get("yaw_rad"), m.path("yaw_rad")) : 0.0;
+}
+
+double read_nonnegative(const Reader& rd, const Map& m, std::string_view key, double fallback,
+                        const std::string& what) {
+  if (!m.has(key)) return fallback;
+  const YAML::Node n = m.get(key);
+  const double v = rd.number(n, m.path(key));
+  if (v < 0.0) rd.fail(n, m.path(key), "expected " + what + " >= 0, got " + n.Scalar());
+  return v;
+}
+
+/// One item of a reference's list of segments or waypoints.
+struct TimedPoint {
+  double time_s;
+  Vec3 position_m;
+  double yaw_rad;
+};
+
+/// A non-empty list at `path` of maps with a strictly increasing time `time_key` (the first >= 0,
+/// or == 0 when `first_at_zero`), a required position_m and an optional yaw_rad (default 0).
+std::vector<TimedPoint> read_timed_points(const Reader& rd, const YAML::Node& list,
+                                          const std::string& path, const Names& keys,
+                                          std::string_view time_key, bool first_at_zero) {
+  const std::string item = "a map {" + name_list(keys) + "}";
+  if (!list.IsSequence() || list.size() == 0)
+    rd.fail(list, path, "expected a non-empty list of " + item + ", got " + describe(list));
+  std::vector<TimedPoint> points;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const Map p = rd.map(list[i], item_path(path, i), keys, item);
+    const YAML::Node t_node = p.required(time_key);
+    const double t = rd.number(t_node, p.path(time_key));
+    if (i == 0 && first_at_zero && t != 0.0)
+      rd.fail(t_node, p.path(time_key),
+              "expected 0 (the first segment starts the run), got " + t_node.Scalar());
+    if (i == 0 && t < 0.0)
+      rd.fail(t_node, p.path(time_key), "expected a time >= 0 s, got " + t_node.Scalar());
+    if (i > 0 && !(t > points.back().time_s))
+      rd.fail(t_node, p.path(time_key),
+              "expected a time after " + format_number(points.back().time_s) + " s (the " +
+                  std::string(time_key) + " of " + item_path(path, i - 1) +
+                  "; times must strictly increase), got " + t_node.Scalar());
+    const Vec3 pos = rd.fixed<3>(p.required("position_m"), p.path("position_m"), "x, y, z in m");
+    points.push_back({t, pos, read_yaw(rd, p)});
+  }
+  return points;
+}
+
+/// `reference:` of a controller input: a Reference (control/reference.hpp) and its type name.
+std::pair<std::shared_ptr<const Reference>, std::string> read_reference(const Reader& rd,
+                                                                        const YAML::Node& node,
+                                                                        const std::string& path) {
+  const std::size_t type = read_type(rd, node, path, kReferenceTypes, "reference type");
+  const std::string expected =
+      "a map with a 'type' (" + name_list(kReferenceTypes) + ") and its keys";
+  const std::string name(kReferenceTypes[type]);
+  const auto center = [&](const Map& m, const Vec3& fallback) -> Vec3 {
+    return m.has("center_m") ? rd.fixed<3>(m.get("center_m"), m.path("center_m"), "x, y, z in m")
+                             : fallback;
+  };
+  const auto period = [&](const Map& m, double fallback) {
+    return m.has("period_s") ? rd.positive(m.get("period_s"), m.path("period_s")) : fallback;
+  };
+  std::shared_ptr<const Reference> ref;
+  switch (type) {
+    case 0: {
+      const Map m = rd.map(node, path, kSetpointKeys, expected);
+      const Vec3 p = rd.fixed<3>(m.required("position_m"), m.path("position_m"), "x, y, z in m");
+      ref = std::make_shared<const SetpointReference>(p, read_yaw(rd, m));
+      break;
+    }
+    case 1:
+      rd.map(node, path, Names{"type"}, expected);
+      ref = std::make_shared<const PiecewiseConstantReference>(
+          PiecewiseConstantReference::thesis_pulse());
+      break;
+    case 2: {
+      const Map m = rd.map(node, path, kPiecewiseKeys, expected);
+      std::vector<PiecewiseConstantReference::Segment> segments;
+      for (const TimedPoint& p :
+           read_timed_points(rd, m.required("segments"), m.path("segments"), kPiecewiseSegmentKeys,
+                             "start_s", /*first_at_zero=*/true))
+        segments.push_back({p.time_s, p.position_m, p.yaw_rad});
+      ref = std::make_shared<const PiecewiseConstantReference>(std::move(segments));
+      break;
+    }
+    case 3: {
+      // Defaults: thesis Eq. 3.28 (r = 2 m, T = 7 s, centre (0, 0, 1), yaw 0).
+      const Map m = rd.map(node, path, kCircleKeys, expected);
+      ref = std::make_shared<const CircleReference>(
+          center(m, Vec3(0, 0, 1)), read_nonnegative(rd, m, "radius_m", 2.0, "a radius"),
+          period(m, 7.0), read_yaw(rd, m));
+      break;
+    }
+    case 4: {
+      // Defaults: thesis Eq. 3.25 (0.8 x 0.6 m, T = 60 s, centre (0, 0, 1.2)).
+      const Map m = rd.map(node, path, kFigureEightKeys, expected);
+      ref = std::make_shared<const FigureEightReference>(
+          center(m, Vec3(0, 0, 1.2)), read_nonnegative(rd, m, "amplitude_x_m", 0.8, "an amplitude"),
+          read_nonnegative(rd, m, "amplitude_y_m", 0.6, "an amplitude"), period(m, 60.0));
+      break;
+    }
+    default: {
+      const Map m = rd.map(node, path, kWaypointsKeys, expected);
+      std::vector<WaypointReference::Waypoint> points;
+      for (const TimedPoint& p :
+           read_timed_points(rd, m.required("points"), m.path("points"), kWaypointKeys, "time_s",
+                             /*first_at_zero=*/false))
+        points.push_back({p.time_s, p.position_m, p.yaw_rad});
+      ref = std::make_shared<const WaypointReference>(std::move(points));
+      break;
+    }
+  }
+  return {std::move(ref), name};
+}
+
+/// A file named in the experiment (model, controller): relative to the experiment's directory
+/// if it exists there, else relative to the current directory (or absolute). `what` names it in
+/// the error ("model file 'x.yaml' not found (looked for ...)").
+std::string resolve_file(const Reader& rd, const YAML::Node& node, const std::string& path,
+                         const std::string& given_text, const std::string& what) {
+  const fs::path given(given_text);
+  std::vector<fs::path> candidates;
+  if (given.is_absolute()) {
+    candidates.push_back(given);
+  } else {
+    candidates.push_back(fs::path(rd.source()).parent_path() / given);
+    candidates.push_back(given);
+  }
+  std::string tried;
+  for (const fs::path& c : candidates) {
+    std::error_code ec;
+    if (fs::is_regular_file(c, ec)) return c.lexically_normal().string();
+    tried += (tried.empty() ? "'" : " and '") + c.lexically_normal().string() + "'";
+  }
+  rd.fail(node, path, what + " file '" + given_text + "' not found (looked for " + tried + ")");
+}
+
+ControllerLoopInput read_controller_input(const Reader& rd, const Map& m) {
+  ControllerLoopInput in;
+  const YAML::Node c = m.required("controller");
+  in.controller_path =
+      resolve_file(rd, c, m.path("controller"), rd.string(c, m.path("controller")), "controller");
+  // Parse the controller file now, so that a bad one fails before anything runs.
+  try {
+    (void)load_controller_config(in.controller_path);
+  } catch (const InvalidArgument& e) {
+    rd.fail(c, m.path("controller"), std::string("bad controller file: ") + e.what());
+  }
+  if (m.has("control_rate_hz"))
+    in.control_rate_hz = rd.positive(m.get("control_rate_hz"), m.path("control_rate_hz"));
+  if (m.has("allocation")) {
+    in.allocation =
+        rd.choice(m.get("allocation"), m.path("allocation"), kAllocations, "allocation") == 0
+            ? AllocationMethod::kExact
+            : AllocationMethod::kThesis;
+  }
+  if (m.has("real_time")) in.real_time = rd.boolean(m.get("real_time"), m.path("real_time"));
+  auto [ref, type] = read_reference(rd, m.required("reference"), m.path("reference"));
+  in.reference = std::move(ref);
+  in.reference_type = std::move(type);
+  return in;
+}
+
+MetricsSettings read_metrics(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  const Map m = rd.map(node, path, kMetricsKeys, "a map of metrics settings");
+  MetricsSettings s;
+  if (m.has("window_s")) {
+    const YAML::Node w = m.get("window_s");
+    const Eigen::Vector2d v = rd.fixed<2>(w, m.path("window_s"), "t0, t1 in s");
+    if (!(v[0] >= 0.0 && v[1] > v[0]))
+      rd.fail(
+          w, m.path("window_s"),
+          "expected 0 <= t0 < t1, got [" + format_number(v[0]) + ", " + format_number(v[1]) + "]");
+    s.window_s = std::array<double, 2>{v[0], v[1]};
+  }
+  return s;
+}
+
+ExperimentInput read_input(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  const std::string expected = "a map with a 'type' (" + name_list(kInputTypes) + ")";
+  const std::size_t type = read_type(rd, node, path, kInputTypes, "input type");
+
+  switch (type) {
+    case 0: {
+      const Map m = rd.map(node, path, Names{"type", "rotor_speeds_rad_s"}, expected);
+      return ConstantRotorSpeedsInput{
+          read_rotor_speeds(rd, m.required("rotor_speeds_rad_s"), m.path("rotor_speeds_rad_s"))};
+    }
+    case 1: {
+      const Map m = rd.map(node, path, Names{"type", "segments"}, expected);
+      const YAML::Node segs = m.required("segments");
+      const std::string segs_path = m.path("segments");
+      if (!segs.IsSequence() || segs.size() == 0)
+        rd.fail(
+            segs, segs_path,
+            "expected a non-empty list of {start_s, rotor_speeds_rad_s}, got " + describe(segs));
+      PiecewiseRotorSpeedsInput in;
+      for (std::size_t i = 0; i < segs.size(); ++i) {
+        const Map s = rd.map(segs[i], item_path(segs_path, i), kSegmentKeys,
+                             "a map {start_s, rotor_speeds_rad_s}");
+        RotorSpeedSegment seg;
+        const YAML::Node start = s.required("start_s");
+        seg.start_s = rd.number(start, s.path("start_s"));
+        if (i == 0 && seg.start_s != 0.0)
+          rd.fail(start, s.path("start_s"),
+                  "expected 0 (the first segment starts the run), got " + start.Scalar());
+        if (i > 0 && !(seg.start_s > in.segments.back().start_s))
+          rd.fail(start, s.path("start_s"),
+                  "expected a start after " + format_number(in.segments.back().start_s) +
+                      " s (the start of " + item_path(segs_path, i - 1) +
+                      "; starts must strictly increase), got " + start.Scalar());
+        seg.rotor_speeds =
+            read_rotor_speeds(rd, s.required("rotor_speeds_rad_s"), s.path("rotor_speeds_rad_s"));
+        in.segments.push_back(std::move(seg));
+      }
+      return in;
+    }
+    case 2: {
+      const Map m = rd.map(node, path, Names{"type", "u", "allocation"}, expected);
+      ConstantGeneralizedForceInput in;
+      in.u = rd.fixed<4>(m.required("u"), m.path("u"), "T in N, tau_x, tau_y, tau_z in N m");
+      if (m.has("allocation")) {
+        in.allocation =
+            rd.choice(m.get("allocation"), m.path("allocation"), kAllocations, "allocation") == 0
+                ? AllocationMethod::kExact
+                : AllocationMethod::kThesis;
+      }
+      return in;
+    }
+    case 3:
+      rd.map(node, path, Names{"type"}, expected);
+      return HoverInput{};
+    default:
+      return read_controller_input(rd, rd.map(node, path, kControllerInputKeys, expected));
+  }
+}
+
+void check_experiment(const Experiment& e, const std::string& source) {
+  const auto fail = [&](const std::string& field, const std::string& message) {
+    throw InvalidArgument(source + ": " + field + ": " + message);
+  };
+  if (!(std::isfinite(e.duration_s) && e.duration_s > 0.0))
+    fail("duration_s", "expected a number > 0, got " + format_number(e.duration_s));
+  if (!(std::isfinite(e.physics_dt_s) && e.physics_dt_s > 0.0 && e.physics_dt_s <= 0.1))
+    fail("physics_dt_s", "expected a step in (0, 0.1] s, got " + format_number(e.physics_dt_s));
+  if (!(e.duration_s / e.physics_dt_s <= 1e12))
+    fail("duration_s", "expected at most 1e12 physics steps, got duration_s / physics_dt_s = " +
+                           format_number(e.duration_s / e.physics_dt_s));
+  if (e.ground.enabled && e.initial_state.position_m.z() < 0.0)
+    fail("initial_state.position_m[2]",
+         "expected z >= 0 (the ground is at z = 0; set ground.enabled: false to start below it), "
+         "got " +
+             format_number(e.initial_state.position_m.z()));
+  // OU stability (as in validate(SimConfig), but naming the experiment's field): the per-step map
+  // of a block is I - s Theta, with eigenvalues 1 - s a and 1 - s (a + N b), N = 3 or 4.
+  const double s = e.noise.parameters.drift == OuDrift::kPerSample ? 1.0 : e.physics_dt_s;
+  const BlockCoefficients th = e.noise.parameters.theta[0];
+  for (const double n : {3.0, 4.0}) {
+    const double e1 = 1.0 - s * th.a, e2 = 1.0 - s * (th.a + n * th.b);
+    if (!(std::abs(e1) < 1.0 && std::abs(e2) < 1.0))
+      fail("noise.theta",
+           "the OU process is unstable: the per-step decay factors 1 - s a = " + format_number(e1) +
+               " and 1 - s (a + " + format_number(n) + " b) = " + format_number(e2) +
+               " must lie in (-1, 1) (s = " + format_number(s) + ", from the drift setting)");
+  }
+  if (const auto* loop = std::get_if<ControllerLoopInput>(&e.input)) {
+    // As ClosedLoop checks it (thesis Eq. 3.11: f_physics / f_control steps per control).
+    const double physics_hz = 1.0 / e.physics_dt_s;
+    const double ratio = physics_hz / loop->control_rate_hz;
+    const double n = std::round(ratio);
+    if (!(std::isfinite(loop->control_rate_hz) && loop->control_rate_hz > 0.0 && n >= 1.0 &&
+          std::abs(ratio - n) < 1e-9 * ratio))
+      fail("input.control_rate_hz",
+           "expected a rate that divides the physics rate " + format_number(physics_hz) +
+               " Hz (1 / physics_dt_s) into a whole number of steps (thesis Eq. 3.11), got " +
+               format_number(loop->control_rate_hz) + " Hz (" + format_number(ratio) +
+               " steps per control)");
+    if (loop->reference == nullptr) fail("input.reference", "missing (null reference)");
+  }
+  // The remaining run settings with the simulator's own check.
+  (void)e.sim_config();
+}
+
+template <class... Fs>
+struct Overloaded : Fs... {
+  using Fs::operator()...;
+};
+template <class... Fs>
+Overloaded(Fs...) -> Overloaded<Fs...>;
+
+}  // namespace
+
+// ---- public API -------------------------------------------------------------------------------
+
+RotorVector RotorSpeedSetting::resolve(const VehicleModel& model, double gravity_m_s2) const {
+  switch (kind) {
+    case Kind::kStopped:
+      return RotorVector::Zero(model.num_rotors());
+    case Kind::kHover:
+      return model.hover_speeds_rad_s(gravity_m_s2);
+    case Kind::kValues:
+      break;
+  }
+  require(static_cast<int>(values_rad_s.size()) == model.num_rotors(), "rotor speeds: expected ",
+          model.num_rotors(), " numbers (rotors of ", model.name(), "), got ", values_rad_s.size());
+  RotorVector w(model.num_rotors());
+  for (int i = 0; i < model.num_rotors(); ++i) w[i] = values_rad_s[static_cast<std::size_t>(i)];
+  return w;
+}
+
+std::string_view input_type_name(const ExperimentInput& input) {
+  return kInputTypes[input.index()];
+}
+
+StateVector InitialStateSpec::state() const {
+  using namespace state_index;
+  StateVector x;
+  x.segment<3>(kPosition) = position_m;
+  x.segment<3>(kVelocity) = velocity_m_s;
+  x.segment<4>(kQuaternion) = quaternion_wxyz;
+  x.segment<3>(kAngularVelocity) = angular_velocity_rad_s;
+  return x;
+}
+
+SimConfig Experiment::sim_config() const {
+  SimConfig c;
+  c.dt_s = physics_dt_s;
+  c.integrator = integrator;
+  c.motor_dynamics = motor_dynamics;
+  if (const auto* u = std::get_if<ConstantGeneralizedForceInput>(&input))
+    c.allocation = u->allocation;
+  c.disturbances = disturbances;
+  c.environment.gravity_W_m_s2 = gravity_m_s2;
+  c.environment.wind_W_m_s = wind_m_s;
+  c.noise = noise;
+  c.ground = ground;
+  c.seed = seed;
+  try {
+    dronetwin::validate(c);
+  } catch (const InvalidArgument& e) {
+    throw InvalidArgument(source + ": " + e.what());
+  }
+  return c;
+}
+
+std::int64_t Experiment::num_steps() const {
+  return static_cast<std::int64_t>(std::ceil(duration_s / physics_dt_s - 1e-9));
+}
+
+std::int64_t segment_start_step(double start_s, double dt_s) {
+  const double k = std::ceil(start_s / dt_s - 1e-9);
+  return k > 0.0 ? static_cast<std::int64_t>(k) : 0;
+}
+
+Experiment parse_experiment(const std::string& yaml_text, const std::string& source_name) {
+  const Reader rd(source_name);
+  const std::string expected = "a map of experiment settings";
+  const Map top = rd.map(rd.parse(yaml_text, expected), "", kTopLevelKeys, expected);
+  for (std::string_view key : kRequiredTopLevelKeys) (void)top.required(key);
+
+  Experiment e;
+  e.source = source_name;
+  e.name = rd.string(top.get("name"), "name");
+  if (top.has("description")) e.description = rd.string(top.get("description"), "description");
+  e.model_path =
+      resolve_file(rd, top.get("model"), "model", rd.string(top.get("model"), "model"), "model");
+  if (top.has("seed")) {
+    e.seed = rd.integer<std::uint64_t>(top.get("seed"), "seed",
+                                       "an integer in [0, 18446744073709551615]");
+  }
+  e.duration_s = rd.positive(top.get("duration_s"), "duration_s");
+  if (top.has("physics_dt_s"))
+    e.physics_dt_s = rd.positive(top.get("physics_dt_s"), "physics_dt_s");
+  if (top.has("integrator")) {
+    e.integrator = rd.choice(top.get("integrator"), "integrator", kIntegrators, "integrator") == 0
+                       ? Integrator::kRk4
+                       : Integrator::kEuler;
+  }
+  if (top.has("motor_dynamics"))
+    e.motor_dynamics = rd.boolean(top.get("motor_dynamics"), "motor_dynamics");
+  if (top.has("noise")) e.noise = read_noise(rd, top.get("noise"), "noise");
+  if (top.has("wind_m_s"))
+    e.wind_m_s = rd.fixed<3>(top.get("wind_m_s"), "wind_m_s", "x, y, z in m/s");
+  if (top.has("gravity_m_s2"))
+    e.gravity_m_s2 = rd.fixed<3>(top.get("gravity_m_s2"), "gravity_m_s2", "x, y, z in m/s^2");
+  if (top.has("disturbances"))
+    e.disturbances = read_disturbances(rd, top.get("disturbances"), "disturbances");
+  if (top.has("ground")) e.ground = read_ground(rd, top.get("ground"), "ground");
+  if (top.has("initial_state"))
+    e.initial_state = read_initial_state(rd, top.get("initial_state"), "initial_state");
+  if (top.has("log")) e.log = read_log(rd, top.get("log"), "log");
+  if (top.has("metrics")) e.metrics = read_metrics(rd, top.get("metrics"), "metrics");
+  e.input = read_input(rd, top.get("input"), "input");
+  const auto* loop = std::get_if<ControllerLoopInput>(&e.input);
+  if (top.has("metrics") && loop == nullptr)
+    rd.fail(top.get("metrics"), "metrics",
+            "only for input type 'controller' (it sets where the tracking RMSE is taken), not '" +
+                std::string(input_type_name(e.input)) + "'");
+  if (e.initial_state.on_reference) {
+    const YAML::Node initial = top.get("initial_state");
+    const YAML::Node on_ref = initial["on_reference"];  // const operator[]: no insertion
+    if (loop == nullptr)
+      rd.fail(on_ref, "initial_state.on_reference",
+              "only for input type 'controller' (it starts on the controller's reference), not '" +
+                  std::string(input_type_name(e.input)) + "'");
+    // At the reference at t = 0: its position and velocity, level at its yaw, rotors at hover.
+    const ReferencePoint r0 = loop->reference->at(0.0);
+    e.initial_state.position_m = r0.position_m;
+    e.initial_state.velocity_m_s = r0.velocity_m_s;
+    e.initial_state.quaternion_wxyz = math::from_euler(0.0, 0.0, r0.yaw_rad);
+    e.initial_state.angular_velocity_rad_s = Vec3::Zero();
+    e.initial_state.rotor_speeds = RotorSpeedSetting::hover();
+    if (e.ground.enabled && r0.position_m.z() < 0.0)
+      rd.fail(on_ref, "initial_state.on_reference",
+              "the reference starts below the ground (z = " + format_number(r0.position_m.z()) +
+                  " m at t = 0); set ground.enabled: false to start there");
+  }
+  check_experiment(e, source_name);
+  return e;
+}
+
+Experiment load_experiment(const std::string& path) {
+  return parse_experiment(read_text_file(path, "experiment file"), path);
+}
+
+void validate(const Experiment& experiment) { check_experiment(experiment, experiment.source); }
+
+void check_against_model(const Experiment& e, const VehicleModel& model) {
+  const auto check = [&](const RotorSpeedSetting& s, const std::string& field) {
+    if (s.kind != RotorSpeedSetting::Kind::kValues) return;
+    const int n = model.num_rotors();
+    require(static_cast<int>(s.values_rad_s.size()) == n, e.source, ": ", field, ": expected ", n,
+            " numbers (rotors of ", model.name(), "), got ", s.values_rad_s.size());
+    for (int i = 0; i < n; ++i) {
+      const RotorParams& r = model.rotor(i);
+      const double w = s.values_rad_s[static_cast<std::size_t>(i)];
+      require(w >= r.min_speed_rad_s && w <= r.max_speed_rad_s, e.source, ": ", field, "[", i,
+              "]: expected a speed within the limits of rotor ", i, " of ", model.name(), " [",
+              r.min_speed_rad_s, ", ", r.max_speed_rad_s, "] rad/s, got ", w,
+              " (rotor speeds are rad/s, not RPM)");
+    }
+  };
+  check(e.initial_state.rotor_speeds, "initial_state.rotor_speeds_rad_s");
+  std::visit(Overloaded{
+                 [&](const ConstantRotorSpeedsInput& in) {
+                   check(in.rotor_speeds, "input.rotor_speeds_rad_s");
+                 },
+                 [&](const PiecewiseRotorSpeedsInput& in) {
+                   for (std::size_t i = 0; i < in.segments.size(); ++i)
+                     check(in.segments[i].rotor_speeds,
+                           "input.segments[" + std::to_string(i) + "].rotor_speeds_rad_s");
+                 },
+                 [&](const ConstantGeneralizedForceInput&) {},
+                 [&](const HoverInput&) {},
+                 // The controller is built for the model by run_experiment (load_controller).
+                 [&](const ControllerLoopInput&) {},
+             },
+             e.input);
+}
+
+}  // namespace dronetwin

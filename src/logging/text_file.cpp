@@ -1,0 +1,38 @@
+// Whole text files in and out (text_file.hpp).
+#include "dronetwin/logging/text_file.hpp"
+
+#include <cerrno>
+#include <fstream>
+#include <sstream>
+#include <system_error>
+
+#include "dronetwin/core/error.hpp"
+
+namespace dronetwin {
+
+std::string read_text_file(const std::string& path, const std::string& what) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InvalidArgument(path + ": cannot read " + what + ": it is a directory");
+  errno = 0;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    const std::string reason =
+        errno != 0 ? std::generic_category().message(errno) : std::string("unknown error");
+    throw InvalidArgument(path + ": cannot open " + what + " (" + reason + ")");
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw InvalidArgument(path + ": error while reading " + what);
+  return text.str();
+}
+
+void write_text_file(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  require(static_cast<bool>(out), path.string(), ": cannot open for writing");
+  out << text;
+  out.close();
+  require(static_cast<bool>(out), path.string(), ": error while writing");
+}
+
+}  // namespace dronetwin
