@@ -89,20 +89,18 @@ def yaw_from_quaternions(q):
 def rmse(record, window_s=None):
     """Tracking RMSE [x, y, z, yaw] of a ClosedLoop.record() result (true state vs reference).
 
-    ``window_s=(t0, t1)`` limits the rows used; the yaw error is wrapped into [-pi, pi]. This is
-    the same definition as the runner's summary (docs/experiment-format.md).
+    ``window_s=(t0, t1)`` limits the physics steps used; the yaw error is wrapped into [-pi, pi].
+    This calls the C++ metric the runner's summary uses (``tracking_rmse``), so the two agree to
+    the bit, window edges included. A record without ``dt_s`` (built by hand) takes the spacing
+    of its first two rows as the step.
     """
-    t = record["t"]
-    keep = _np.ones_like(t, dtype=bool)
-    if window_s is not None:
-        keep = (t >= window_s[0]) & (t <= window_s[1])
-    x = record["state"][keep]
-    ref = record["reference"][keep]
-    e = _np.empty((x.shape[0], 4))
-    e[:, :3] = ref[:, :3] - x[:, :3]
-    dyaw = ref[:, 3] - yaw_from_quaternions(x[:, 6:10])
-    e[:, 3] = _np.arctan2(_np.sin(dyaw), _np.cos(dyaw))
-    return _np.sqrt(_np.mean(e * e, axis=0))
+    t = _np.ascontiguousarray(record["t"], dtype=float)
+    dt = record.get("dt_s") if hasattr(record, "get") else None
+    if dt is None:
+        if t.shape[0] < 2:
+            raise ValueError("rmse: the record has no dt_s and fewer than two rows")
+        dt = float(t[1] - t[0])
+    return _core.tracking_rmse(t, record["state"], record["reference"], float(dt), window_s)
 
 
 def default_data_dir():

@@ -140,7 +140,8 @@ class PyController : public ControllerBase {
 };
 
 /// Records a closed-loop run into preallocated numpy arrays (one row at t = 0 and after every
-/// `every`-th step), with the GIL released while stepping.
+/// `every`-th step) through ClosedLoop::run(), with the GIL released while stepping. A failed run
+/// keeps its rows (and the last good state) and says why in status and failure_message.
 py::dict record(ClosedLoop& loop, double duration_s, int every) {
   const Simulator& sim = loop.simulator();
   if (!(duration_s >= 0.0) || !std::isfinite(duration_s))
@@ -149,53 +150,68 @@ py::dict record(ClosedLoop& loop, double duration_s, int every) {
   if (every < 1)
     throw py::value_error("record: every_n_steps must be >= 1, got " + std::to_string(every));
   const double dt = sim.config().dt_s;
-  const auto steps = static_cast<std::int64_t>(std::ceil(duration_s / dt - 1e-9));
-  const py::ssize_t rows = static_cast<py::ssize_t>(steps / every + 1);
+  const std::int64_t steps = ClosedLoop::steps_for(duration_s, dt);
+  // A row per every-th step, plus t = 0 and a possible last good state of a failed run.
+  const py::ssize_t rows = static_cast<py::ssize_t>(steps / every + 2);
   const py::ssize_t nr = sim.model().num_rotors();
   py::array_t<double> t({rows}), x({rows, py::ssize_t{kStateSize}}),
       xm({rows, py::ssize_t{kStateSize}}), w({rows, nr}), wref({rows, nr}),
       ref({rows, py::ssize_t{4}}), u({rows, py::ssize_t{4}}), sat({rows});
-  double *pt = t.mutable_data(), *px = x.mutable_data(), *pxm = xm.mutable_data(),
-         *pw = w.mutable_data(), *pwr = wref.mutable_data(), *pref = ref.mutable_data(),
-         *pu = u.mutable_data(), *psat = sat.mutable_data();
   const ControllerBase& controller = loop.controller();
   const std::vector<std::string> diag_names = controller.diagnostic_names();
   const auto nd = static_cast<py::ssize_t>(diag_names.size());
   py::array_t<double> diag({rows, nd});
-  double* pdiag = diag.mutable_data();
-  py::ssize_t filled = 0;
+
+  struct Recorder final : LoopObserver {
+    double *pt, *px, *pxm, *pw, *pwr, *pref, *pu, *psat, *pdiag;
+    py::ssize_t nr, nd, filled = 0;
+    std::int64_t start_step, every, logged_step = -1;
+    void observe(const ClosedLoop& l) override {
+      if ((l.simulator().step_count() - start_step) % every == 0) row(l);
+    }
+    void finish(const ClosedLoop& l, const StepResult& r) override {
+      if (!r.ok() && logged_step != l.simulator().step_count()) row(l);
+    }
+    void row(const ClosedLoop& l) {
+      const Simulator& s = l.simulator();
+      const py::ssize_t k = filled++;
+      pt[k] = s.time_s();
+      std::memcpy(px + k * kStateSize, s.state().data(), sizeof(double) * kStateSize);
+      std::memcpy(pxm + k * kStateSize, s.measured_state().data(), sizeof(double) * kStateSize);
+      std::memcpy(pw + k * nr, s.rotor_speeds_rad_s().data(),
+                  sizeof(double) * static_cast<std::size_t>(nr));
+      std::memcpy(pwr + k * nr, s.rotor_speed_reference_rad_s().data(),
+                  sizeof(double) * static_cast<std::size_t>(nr));
+      const ReferencePoint p = l.reference().at(s.time_s());
+      pref[4 * k + 0] = p.position_m.x();
+      pref[4 * k + 1] = p.position_m.y();
+      pref[4 * k + 2] = p.position_m.z();
+      pref[4 * k + 3] = p.yaw_rad;
+      for (int i = 0; i < 4; ++i) pu[4 * k + i] = l.last_command()[i];
+      psat[k] = l.last_allocation().saturated ? 1.0 : 0.0;
+      if (nd > 0) l.controller().diagnostics(pdiag + k * nd);
+      logged_step = s.step_count();
+    }
+  } recorder;
+  recorder.pt = t.mutable_data();
+  recorder.px = x.mutable_data();
+  recorder.pxm = xm.mutable_data();
+  recorder.pw = w.mutable_data();
+  recorder.pwr = wref.mutable_data();
+  recorder.pref = ref.mutable_data();
+  recorder.pu = u.mutable_data();
+  recorder.psat = sat.mutable_data();
+  recorder.pdiag = diag.mutable_data();
+  recorder.nr = nr;
+  recorder.nd = nd;
+  recorder.start_step = sim.step_count();
+  recorder.every = every;
   StepResult result;
   {
     py::gil_scoped_release release;
-    const auto log_row = [&] {
-      const py::ssize_t r = filled++;
-      pt[r] = sim.time_s();
-      std::memcpy(px + r * kStateSize, sim.state().data(), sizeof(double) * kStateSize);
-      std::memcpy(pxm + r * kStateSize, sim.measured_state().data(), sizeof(double) * kStateSize);
-      std::memcpy(pw + r * nr, sim.rotor_speeds_rad_s().data(),
-                  sizeof(double) * static_cast<std::size_t>(nr));
-      std::memcpy(pwr + r * nr, sim.rotor_speed_reference_rad_s().data(),
-                  sizeof(double) * static_cast<std::size_t>(nr));
-      const ReferencePoint p = loop.reference().at(sim.time_s());
-      pref[4 * r + 0] = p.position_m.x();
-      pref[4 * r + 1] = p.position_m.y();
-      pref[4 * r + 2] = p.position_m.z();
-      pref[4 * r + 3] = p.yaw_rad;
-      for (int k = 0; k < 4; ++k) pu[4 * r + k] = loop.last_command()[k];
-      psat[r] = loop.last_allocation().saturated ? 1.0 : 0.0;
-      if (nd > 0) controller.diagnostics(pdiag + r * nd);
-    };
-    loop.update();
-    log_row();
-    for (std::int64_t k = 1; k <= steps; ++k) {
-      result = loop.step();
-      if (!result.ok()) break;
-      if (k % every == 0) {
-        loop.update();  // the command in effect from this row's instant on
-        log_row();
-      }
-    }
+    result = loop.run(duration_s, &recorder);
   }
+  const py::ssize_t filled = recorder.filled;
   py::dict d;
   const auto trim = [&](py::array_t<double>& a) -> py::object {
     if (filled == rows) return a;
@@ -211,8 +227,10 @@ py::dict record(ClosedLoop& loop, double duration_s, int every) {
   d["saturated"] = trim(sat);
   d["diagnostics"] = trim(diag);
   d["diagnostic_names"] = diag_names;
-  d["status"] = sim.status();
-  d["failure_message"] = sim.failure_message();
+  d["dt_s"] = dt;
+  d["status"] = result.status;
+  d["failure_message"] = result.status == StepStatus::kControllerFailed ? loop.failure_message()
+                                                                        : sim.failure_message();
   d["state_columns"] =
       py::make_tuple("x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "wx", "wy", "wz");
   return d;
@@ -547,8 +565,13 @@ void bind_control(py::module_& m) {
       .def("update", &ClosedLoop::update,
            "Runs the controller if this step is a control instant (idempotent). True if it ran.")
       .def("step", &ClosedLoop::step, "update(), one physics step, real-time pacing if enabled.")
-      .def("run", &ClosedLoop::run, py::arg("duration_s"), py::call_guard<py::gil_scoped_release>(),
-           "Steps for duration_s of simulated time (GIL released; Python controllers retake it).")
+      .def(
+          "run", [](ClosedLoop& l, double duration_s) { return l.run(duration_s); },
+          py::arg("duration_s"), py::call_guard<py::gil_scoped_release>(),
+          "Steps for duration_s of simulated time (GIL released; Python controllers retake it).\n"
+          "A failing controller ends the run with status CONTROLLER_FAILED (failure_message).")
+      .def_property_readonly("failure_message", &ClosedLoop::failure_message,
+                             "Why the last run() or record() ended with CONTROLLER_FAILED.")
       .def(
           "record",
           [](ClosedLoop& loop, double duration_s, int every) {

@@ -3,6 +3,7 @@
 
 #include "bindings.hpp"
 #include "dronetwin/app/controller_registry.hpp"
+#include "dronetwin/app/metrics.hpp"
 #include "dronetwin/app/run_experiment.hpp"
 #include "dronetwin/config/controller_config.hpp"
 #include "dronetwin/config/experiment.hpp"
@@ -48,22 +49,43 @@ void bind_io(py::module_& m) {
       .def_readwrite("description", &Experiment::description)
       .def_readonly("source", &Experiment::source)
       .def_readwrite("model_path", &Experiment::model_path)
-      .def_readwrite("seed", &Experiment::seed)
+      .def_property(
+          "seed", [](const Experiment& e) { return e.sim.seed; },
+          [](Experiment& e, std::uint64_t v) { e.sim.seed = v; })
       .def_readwrite("duration_s", &Experiment::duration_s)
-      .def_readwrite("physics_dt_s", &Experiment::physics_dt_s)
-      .def_readwrite("integrator", &Experiment::integrator)
-      .def_readwrite("motor_dynamics", &Experiment::motor_dynamics)
-      .def_readwrite("noise", &Experiment::noise)
+      .def_readwrite("sim", &Experiment::sim,
+                     "The simulator settings (SimConfig); the properties below are views of it.")
       .def_property(
-          "wind_m_s", [](const Experiment& e) { return e.wind_m_s; },
-          [](Experiment& e, py::handle w) { e.wind_m_s = to_fixed<3>(w, "Experiment.wind_m_s"); })
+          "physics_dt_s", [](const Experiment& e) { return e.sim.dt_s; },
+          [](Experiment& e, double v) { e.sim.dt_s = v; })
       .def_property(
-          "gravity_m_s2", [](const Experiment& e) { return e.gravity_m_s2; },
-          [](Experiment& e, py::handle g) {
-            e.gravity_m_s2 = to_fixed<3>(g, "Experiment.gravity_m_s2");
+          "integrator", [](const Experiment& e) { return e.sim.integrator; },
+          [](Experiment& e, Integrator v) { e.sim.integrator = v; })
+      .def_property(
+          "motor_dynamics", [](const Experiment& e) { return e.sim.motor_dynamics; },
+          [](Experiment& e, bool v) { e.sim.motor_dynamics = v; })
+      .def_property(
+          "noise", [](const Experiment& e) { return e.sim.noise; },
+          [](Experiment& e, const NoiseConfig& v) { e.sim.noise = v; })
+      .def_property(
+          "wind_m_s", [](const Experiment& e) { return e.sim.environment.wind_W_m_s; },
+          [](Experiment& e, py::handle w) {
+            e.sim.environment.wind_W_m_s = to_fixed<3>(w, "Experiment.wind_m_s");
           })
-      .def_readwrite("disturbances", &Experiment::disturbances)
-      .def_readwrite("ground", &Experiment::ground)
+      .def_property(
+          "gravity_m_s2", [](const Experiment& e) { return e.sim.environment.gravity_W_m_s2; },
+          [](Experiment& e, py::handle g) {
+            e.sim.environment.gravity_W_m_s2 = to_fixed<3>(g, "Experiment.gravity_m_s2");
+          })
+      .def_property(
+          "disturbances", [](const Experiment& e) { return e.sim.disturbances; },
+          [](Experiment& e, const DisturbanceSwitches& v) { e.sim.disturbances = v; })
+      .def_property(
+          "ground", [](const Experiment& e) { return e.sim.ground; },
+          [](Experiment& e, const GroundConfig& v) { e.sim.ground = v; })
+      .def_property(
+          "divergence", [](const Experiment& e) { return e.sim.divergence; },
+          [](Experiment& e, const DivergenceLimits& v) { e.sim.divergence = v; })
       .def_readwrite("log", &Experiment::log)
       .def_property_readonly(
           "input_type", [](const Experiment& e) { return std::string(input_type_name(e.input)); })
@@ -154,6 +176,28 @@ void bind_io(py::module_& m) {
                "', status=" + std::string(status_name(s.status)) +
                ", steps=" + std::to_string(s.steps) + ")";
       });
+
+  m.def(
+      "tracking_rmse",
+      [](const py::array_t<double, py::array::c_style | py::array::forcecast>& t,
+         const py::array_t<double, py::array::c_style | py::array::forcecast>& state,
+         const py::array_t<double, py::array::c_style | py::array::forcecast>& reference,
+         double dt_s, std::optional<std::array<double, 2>> window_s) {
+        const py::ssize_t rows = t.ndim() == 1 ? t.shape(0) : -1;
+        if (rows < 0) throw py::value_error("tracking_rmse: t must be 1-D (rows,)");
+        if (state.ndim() != 2 || state.shape(0) != rows || state.shape(1) != kStateSize)
+          throw py::value_error("tracking_rmse: state must be (" + std::to_string(rows) +
+                                ", 13), got " + describe_object(state));
+        if (reference.ndim() != 2 || reference.shape(0) != rows || reference.shape(1) != 4)
+          throw py::value_error("tracking_rmse: reference must be (" + std::to_string(rows) +
+                                ", 4), got " + describe_object(reference));
+        return Vec4(tracking_rmse(t.data(), state.data(), reference.data(), rows, dt_s, window_s));
+      },
+      py::arg("t"), py::arg("state"), py::arg("reference"), py::arg("dt_s"),
+      py::arg("window_s") = py::none(),
+      "Tracking RMSE [x, y, z, yaw] of recorded rows: the one definition of dronetwin (the\n"
+      "runner's summary.json uses it too): the true state against the reference over the physics\n"
+      "steps in window_s = (t0, t1) (None: all), yaw error wrapped into [-pi, pi].");
 
   m.def("run_experiment", &run, py::arg("experiment"), py::arg("out_dir"),
         py::arg("model") = nullptr,

@@ -46,7 +46,9 @@ void bind_sim(py::module_& m) {
       .value("OK", StepStatus::kOk)
       .value("NON_FINITE", StepStatus::kNonFinite, "The integrated state had NaN or inf.")
       .value("DIVERGED", StepStatus::kDiverged,
-             "Position, speed or rate beyond the divergence limits.");
+             "Position, speed or rate beyond the divergence limits.")
+      .value("CONTROLLER_FAILED", StepStatus::kControllerFailed,
+             "The controller threw or returned non-finite output (ClosedLoop.failure_message).");
 
   py::enum_<Term>(m, "Term", "Force and moment terms of the model (wrench breakdown).")
       .value("THRUST", Term::kThrust)
@@ -137,29 +139,25 @@ void bind_sim(py::module_& m) {
       "Run settings of a Simulator (everything that is not the airframe).\n\n"
       "    cfg = dronetwin.SimConfig(dt_s=1e-3, seed=7, noise=True)\n"
       "    cfg.disturbances.ground_effect = False     # nested settings are edited in place")
-      .def(py::init([](double dt_s, Integrator integrator, bool motor_dynamics,
-                       AllocationMethod allocation, bool noise, std::uint64_t seed) {
+      .def(py::init([](double dt_s, Integrator integrator, bool motor_dynamics, bool noise,
+                       std::uint64_t seed) {
              SimConfig c;
              c.dt_s = dt_s;
              c.integrator = integrator;
              c.motor_dynamics = motor_dynamics;
-             c.allocation = allocation;
              c.noise.enabled = noise;
              c.seed = seed;
              validate(c);
              return c;
            }),
            py::kw_only(), py::arg("dt_s") = 1.0e-3, py::arg("integrator") = Integrator::kRk4,
-           py::arg("motor_dynamics") = true, py::arg("allocation") = AllocationMethod::kExact,
-           py::arg("noise") = false, py::arg("seed") = 0,
+           py::arg("motor_dynamics") = true, py::arg("noise") = false, py::arg("seed") = 0,
            "Settings with the most used fields given by keyword; the rest at their defaults.")
       .def_readwrite("dt_s", &SimConfig::dt_s, "Physics step, s (thesis: 1 ms).")
       .def_readwrite("integrator", &SimConfig::integrator)
       .def_readwrite(
           "motor_dynamics", &SimConfig::motor_dynamics,
           "First-order motor lag (Eq. 2.43-2.45); off: speed = clamped reference at once.")
-      .def_readwrite("allocation", &SimConfig::allocation,
-                     "How Simulator.set_generalized_force allocates.")
       .def_readwrite("disturbances", &SimConfig::disturbances)
       .def_readwrite("environment", &SimConfig::environment)
       .def_readwrite("noise", &SimConfig::noise)
@@ -259,11 +257,12 @@ void bind_sim(py::module_& m) {
           "non-finite values or a wrong length, TypeError for another dtype).")
       .def(
           "set_generalized_force",
-          [](Simulator& s, py::handle u) {
-            s.set_generalized_force(to_fixed<4>(u, "set_generalized_force"));
+          [](Simulator& s, py::handle u, AllocationMethod allocation) {
+            s.set_generalized_force(to_fixed<4>(u, "set_generalized_force"), allocation);
           },
-          py::arg("u"),
-          "Generalized force [T, tau_x, tau_y, tau_z] (N, N m), allocated with config.allocation.")
+          py::arg("u"), py::arg("allocation") = AllocationMethod::kExact,
+          "Generalized force [T, tau_x, tau_y, tau_z] (N, N m), allocated with `allocation`\n"
+          "(EXACT: thrust-first with saturation handling; THESIS: Eq. 2.31).")
       .def("step", py::overload_cast<>(&Simulator::step),
            "One physics step. Returns a StepResult (status OK, NON_FINITE or DIVERGED).")
       .def("step", py::overload_cast<std::int64_t>(&Simulator::step), py::arg("n"),

@@ -123,7 +123,7 @@ int run_command(const RunOptions& o) {
     const auto r = std::from_chars(o.seed.data(), end, seed);
     require(!o.seed.empty() && r.ec == std::errc{} && r.ptr == end,
             "--seed: expected an integer in [0, 18446744073709551615], got '", o.seed, "'");
-    e.seed = seed;
+    e.sim.seed = seed;
   }
   if (o.duration_given) {
     require(std::isfinite(o.duration_s) && o.duration_s > 0.0,

@@ -39,14 +39,15 @@ using Names = std::vector<std::string_view>;
 // ---- key tables -------------------------------------------------------------------------------
 
 const Names kTopLevelKeys = {
-    "name",       "description",    "model", "seed",     "duration_s",   "physics_dt_s",
-    "integrator", "motor_dynamics", "noise", "wind_m_s", "gravity_m_s2", "disturbances",
-    "ground",     "initial_state",  "log",   "metrics",  "input"};
+    "name",       "description",    "model",         "seed",     "duration_s",   "physics_dt_s",
+    "integrator", "motor_dynamics", "noise",         "wind_m_s", "gravity_m_s2", "disturbances",
+    "ground",     "divergence",     "initial_state", "log",      "metrics",      "input"};
 const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
 const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
 const Names kBlockKeys = {"a", "b"};
 const Names kDisturbanceKeys(kDisturbanceSwitchNames.begin(), kDisturbanceSwitchNames.end());
 const Names kGroundKeys = {"enabled", "crash_speed_m_s", "crash_tilt_rad"};
+const Names kDivergenceKeys = {"max_position_m", "max_speed_m_s", "max_angular_speed_rad_s"};
 const Names kInitialStateKeys = {"position_m",  "velocity_m_s",           "quaternion_wxyz",
                                  "euler_rad",   "angular_velocity_rad_s", "rotor_speeds_rad_s",
                                  "on_reference"};
@@ -151,6 +152,21 @@ GroundConfig read_ground(const Reader& rd, const YAML::Node& node, const std::st
   if (m.has("crash_tilt_rad"))
     g.crash_tilt_rad = rd.positive(m.get("crash_tilt_rad"), m.path("crash_tilt_rad"));
   return g;
+}
+
+DivergenceLimits read_divergence(const Reader& rd, const YAML::Node& node,
+                                 const std::string& path) {
+  DivergenceLimits d;
+  const Map m = rd.map(node, path, kDivergenceKeys, "a map of divergence limits");
+  if (m.has("max_position_m"))
+    d.max_position_m = rd.positive(m.get("max_position_m"), m.path("max_position_m"));
+  if (m.has("max_speed_m_s"))
+    d.max_speed_m_s = rd.positive(m.get("max_speed_m_s"), m.path("max_speed_m_s"));
+  if (m.has("max_angular_speed_rad_s")) {
+    d.max_angular_speed_rad_s =
+        rd.positive(m.get("max_angular_speed_rad_s"), m.path("max_angular_speed_rad_s"));
+  }
+  return d;
 }
 
 InitialStateSpec read_initial_state(const Reader& rd, const YAML::Node& node,
@@ -472,20 +488,20 @@ void check_experiment(const Experiment& e, const std::string& source) {
   };
   if (!(std::isfinite(e.duration_s) && e.duration_s > 0.0))
     fail("duration_s", "expected a number > 0, got " + format_number(e.duration_s));
-  if (!(std::isfinite(e.physics_dt_s) && e.physics_dt_s > 0.0 && e.physics_dt_s <= 0.1))
-    fail("physics_dt_s", "expected a step in (0, 0.1] s, got " + format_number(e.physics_dt_s));
-  if (!(e.duration_s / e.physics_dt_s <= 1e12))
+  if (!(std::isfinite(e.sim.dt_s) && e.sim.dt_s > 0.0 && e.sim.dt_s <= 0.1))
+    fail("physics_dt_s", "expected a step in (0, 0.1] s, got " + format_number(e.sim.dt_s));
+  if (!(e.duration_s / e.sim.dt_s <= 1e12))
     fail("duration_s", "expected at most 1e12 physics steps, got duration_s / physics_dt_s = " +
-                           format_number(e.duration_s / e.physics_dt_s));
-  if (e.ground.enabled && e.initial_state.position_m.z() < 0.0)
+                           format_number(e.duration_s / e.sim.dt_s));
+  if (e.sim.ground.enabled && e.initial_state.position_m.z() < 0.0)
     fail("initial_state.position_m[2]",
          "expected z >= 0 (the ground is at z = 0; set ground.enabled: false to start below it), "
          "got " +
              format_number(e.initial_state.position_m.z()));
   // OU stability (as in validate(SimConfig), but naming the experiment's field): the per-step map
   // of a block is I - s Theta, with eigenvalues 1 - s a and 1 - s (a + N b), N = 3 or 4.
-  const double s = e.noise.parameters.drift == OuDrift::kPerSample ? 1.0 : e.physics_dt_s;
-  const BlockCoefficients th = e.noise.parameters.theta[0];
+  const double s = e.sim.noise.parameters.drift == OuDrift::kPerSample ? 1.0 : e.sim.dt_s;
+  const BlockCoefficients th = e.sim.noise.parameters.theta[0];
   for (const double n : {3.0, 4.0}) {
     const double e1 = 1.0 - s * th.a, e2 = 1.0 - s * (th.a + n * th.b);
     if (!(std::abs(e1) < 1.0 && std::abs(e2) < 1.0))
@@ -496,7 +512,7 @@ void check_experiment(const Experiment& e, const std::string& source) {
   }
   if (const auto* loop = std::get_if<ControllerLoopInput>(&e.input)) {
     // As ClosedLoop checks it (thesis Eq. 3.11: f_physics / f_control steps per control).
-    const double physics_hz = 1.0 / e.physics_dt_s;
+    const double physics_hz = 1.0 / e.sim.dt_s;
     const double ratio = physics_hz / loop->control_rate_hz;
     const double n = std::round(ratio);
     if (!(std::isfinite(loop->control_rate_hz) && loop->control_rate_hz > 0.0 && n >= 1.0 &&
@@ -554,28 +570,16 @@ StateVector InitialStateSpec::state() const {
 }
 
 SimConfig Experiment::sim_config() const {
-  SimConfig c;
-  c.dt_s = physics_dt_s;
-  c.integrator = integrator;
-  c.motor_dynamics = motor_dynamics;
-  if (const auto* u = std::get_if<ConstantGeneralizedForceInput>(&input))
-    c.allocation = u->allocation;
-  c.disturbances = disturbances;
-  c.environment.gravity_W_m_s2 = gravity_m_s2;
-  c.environment.wind_W_m_s = wind_m_s;
-  c.noise = noise;
-  c.ground = ground;
-  c.seed = seed;
   try {
-    dronetwin::validate(c);
+    dronetwin::validate(sim);
   } catch (const InvalidArgument& e) {
     throw InvalidArgument(source + ": " + e.what());
   }
-  return c;
+  return sim;
 }
 
 std::int64_t Experiment::num_steps() const {
-  return static_cast<std::int64_t>(std::ceil(duration_s / physics_dt_s - 1e-9));
+  return static_cast<std::int64_t>(std::ceil(duration_s / sim.dt_s - 1e-9));
 }
 
 std::int64_t segment_start_step(double start_s, double dt_s) {
@@ -596,27 +600,30 @@ Experiment parse_experiment(const std::string& yaml_text, const std::string& sou
   e.model_path =
       resolve_file(rd, top.get("model"), "model", rd.string(top.get("model"), "model"), "model");
   if (top.has("seed")) {
-    e.seed = rd.integer<std::uint64_t>(top.get("seed"), "seed",
-                                       "an integer in [0, 18446744073709551615]");
+    e.sim.seed = rd.integer<std::uint64_t>(top.get("seed"), "seed",
+                                           "an integer in [0, 18446744073709551615]");
   }
   e.duration_s = rd.positive(top.get("duration_s"), "duration_s");
-  if (top.has("physics_dt_s"))
-    e.physics_dt_s = rd.positive(top.get("physics_dt_s"), "physics_dt_s");
+  if (top.has("physics_dt_s")) e.sim.dt_s = rd.positive(top.get("physics_dt_s"), "physics_dt_s");
   if (top.has("integrator")) {
-    e.integrator = rd.choice(top.get("integrator"), "integrator", kIntegrators, "integrator") == 0
-                       ? Integrator::kRk4
-                       : Integrator::kEuler;
+    e.sim.integrator =
+        rd.choice(top.get("integrator"), "integrator", kIntegrators, "integrator") == 0
+            ? Integrator::kRk4
+            : Integrator::kEuler;
   }
   if (top.has("motor_dynamics"))
-    e.motor_dynamics = rd.boolean(top.get("motor_dynamics"), "motor_dynamics");
-  if (top.has("noise")) e.noise = read_noise(rd, top.get("noise"), "noise");
+    e.sim.motor_dynamics = rd.boolean(top.get("motor_dynamics"), "motor_dynamics");
+  if (top.has("noise")) e.sim.noise = read_noise(rd, top.get("noise"), "noise");
   if (top.has("wind_m_s"))
-    e.wind_m_s = rd.fixed<3>(top.get("wind_m_s"), "wind_m_s", "x, y, z in m/s");
+    e.sim.environment.wind_W_m_s = rd.fixed<3>(top.get("wind_m_s"), "wind_m_s", "x, y, z in m/s");
   if (top.has("gravity_m_s2"))
-    e.gravity_m_s2 = rd.fixed<3>(top.get("gravity_m_s2"), "gravity_m_s2", "x, y, z in m/s^2");
+    e.sim.environment.gravity_W_m_s2 =
+        rd.fixed<3>(top.get("gravity_m_s2"), "gravity_m_s2", "x, y, z in m/s^2");
   if (top.has("disturbances"))
-    e.disturbances = read_disturbances(rd, top.get("disturbances"), "disturbances");
-  if (top.has("ground")) e.ground = read_ground(rd, top.get("ground"), "ground");
+    e.sim.disturbances = read_disturbances(rd, top.get("disturbances"), "disturbances");
+  if (top.has("ground")) e.sim.ground = read_ground(rd, top.get("ground"), "ground");
+  if (top.has("divergence"))
+    e.sim.divergence = read_divergence(rd, top.get("divergence"), "divergence");
   if (top.has("initial_state"))
     e.initial_state = read_initial_state(rd, top.get("initial_state"), "initial_state");
   if (top.has("log")) e.log = read_log(rd, top.get("log"), "log");
@@ -641,7 +648,7 @@ Experiment parse_experiment(const std::string& yaml_text, const std::string& sou
     e.initial_state.quaternion_wxyz = math::from_euler(0.0, 0.0, r0.yaw_rad);
     e.initial_state.angular_velocity_rad_s = Vec3::Zero();
     e.initial_state.rotor_speeds = RotorSpeedSetting::hover();
-    if (e.ground.enabled && r0.position_m.z() < 0.0)
+    if (e.sim.ground.enabled && r0.position_m.z() < 0.0)
       rd.fail(on_ref, "initial_state.on_reference",
               "the reference starts below the ground (z = " + format_number(r0.position_m.z()) +
                   " m at t = 0); set ground.enabled: false to start there");

@@ -29,21 +29,15 @@ ClosedLoop::ClosedLoop(Simulator& sim, ControllerBase& controller, const Referen
 void ClosedLoop::control() {
   input_.time_s = sim_.time_s();
   input_.state = sim_.measured_state();
-  input_.state_derivative = sim_.measured_state_derivative();
+  if (controller_.uses_state_derivative())
+    input_.state_derivative = sim_.measured_state_derivative();
   input_.reference = reference_.at(input_.time_s);
   w_cmd_ = controller_.calculate_actuator_cmd(input_);
   if (controller_.level() == ControlLevel::kGeneralizedForce) {
     u_ = controller_.last_allocation().achieved;
     if (controller_.last_allocation().saturated) ++saturated_updates_;
   } else {
-    // What the commanded speeds produce (the motors clamp them to the rotor limits).
-    const VehicleModel& m = sim_.model();
-    RotorVector thrusts(m.num_rotors());
-    for (int i = 0; i < m.num_rotors(); ++i) {
-      const RotorParams& r = m.rotor(i);
-      thrusts[i] = r.thrust(std::clamp(w_cmd_[i], r.min_speed_rad_s, r.max_speed_rad_s));
-    }
-    u_ = m.allocation_matrix() * thrusts;
+    u_ = generalized_force_of(sim_.model(), w_cmd_);  // the motors clamp the commands
   }
   sim_.set_rotor_speed_reference(w_cmd_);
   ++updates_;
@@ -74,19 +68,44 @@ StepResult ClosedLoop::step() {
   return r;
 }
 
-StepResult ClosedLoop::run(double duration_s) {
+std::int64_t ClosedLoop::steps_for(double duration_s, double dt_s) {
   require(std::isfinite(duration_s) && duration_s >= 0.0, "duration_s: expected >= 0, got ",
           duration_s);
-  const auto n = static_cast<std::int64_t>(std::llround(duration_s / sim_.config().dt_s));
-  StepResult total;
-  for (std::int64_t k = 0; k < n; ++k) {
-    const StepResult r = step();
-    if (!r.ok()) {
-      total.status = r.status;
-      return total;
-    }
-    ++total.steps_taken;
+  return static_cast<std::int64_t>(std::ceil(duration_s / dt_s - 1e-9));
+}
+
+bool ClosedLoop::guarded_update(StepResult& result) {
+  try {
+    update();
+    return true;
+  } catch (const SimulationError& e) {
+    failure_message_ = e.what();
+  } catch (const InvalidArgument& e) {
+    failure_message_ = e.what();
   }
+  result.status = StepStatus::kControllerFailed;
+  return false;
+}
+
+StepResult ClosedLoop::run(double duration_s, LoopObserver* observer) {
+  const std::int64_t n = steps_for(duration_s, sim_.config().dt_s);
+  StepResult total;
+  failure_message_.clear();
+  if (guarded_update(total)) {
+    if (observer != nullptr) observer->observe(*this);
+    for (std::int64_t k = 0; k < n; ++k) {
+      // update() already ran for this instant: step() calls it again as a no-op.
+      const StepResult r = step();
+      if (!r.ok()) {
+        total.status = r.status;
+        break;
+      }
+      ++total.steps_taken;
+      if (!guarded_update(total)) break;
+      if (observer != nullptr) observer->observe(*this);
+    }
+  }
+  if (observer != nullptr) observer->finish(*this, total);
   return total;
 }
 

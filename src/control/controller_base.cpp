@@ -59,17 +59,7 @@ GeneralizedForce ControllerBase::do_calculate_u(const ControlInput&) {
 }
 
 RotorVector ControllerBase::do_calculate_actuator_cmd(const ControlInput& in) {
-  const GeneralizedForce u = calculate_u(in);
-  if (allocation_ == AllocationMethod::kExact) {
-    last_allocation_ = allocate_with_saturation(*model_, u);
-  } else {
-    last_allocation_.speeds_rad_s = allocate_speeds(*model_, u, allocation_);
-    for (int i = 0; i < model_->num_rotors(); ++i)
-      last_allocation_.thrusts_N[i] = model_->rotor(i).thrust(last_allocation_.speeds_rad_s[i]);
-    last_allocation_.achieved = model_->allocation_matrix() * last_allocation_.thrusts_N;
-    last_allocation_.moment_scale = 1.0;
-    last_allocation_.saturated = (last_allocation_.achieved - u).norm() > 1e-6 * (1 + u.norm());
-  }
+  last_allocation_ = allocate(*model_, calculate_u(in), allocation_);
   return last_allocation_.speeds_rad_s;
 }
 

@@ -143,11 +143,11 @@ void Simulator::set_rotor_speed_reference(const RotorVector& reference_rad_s) {
   data_.rotor_speed_reference_rad_s = reference_rad_s;
 }
 
-void Simulator::set_generalized_force(const GeneralizedForce& u) {
+void Simulator::set_generalized_force(const GeneralizedForce& u, AllocationMethod method) {
   for (int i = 0; i < 4; ++i)
     require(std::isfinite(u[i]), "generalized force [T, tau_x, tau_y, tau_z][", i,
             "]: expected a finite number, got ", u[i]);
-  data_.rotor_speed_reference_rad_s = allocate_speeds(*model_, u, config_.allocation);
+  data_.rotor_speed_reference_rad_s = allocate(*model_, u, method).speeds_rad_s;
 }
 
 void Simulator::set_disturbances(const DisturbanceSwitches& switches) {

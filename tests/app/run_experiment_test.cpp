@@ -332,7 +332,7 @@ TEST_F(RunExperiment, ClosedLoopRunsAreReproducible) {
   EXPECT_EQ(a.closed_loop->rmse, b.closed_loop->rmse);
   // Another seed: other measurement noise, which the controller feeds back into the flight.
   Experiment other = experiment(closed_loop_body());
-  other.seed = 5;
+  other.sim.seed = 5;
   const RunSummary c = run_experiment(other, (dir_ / "c").string());
   const LogTable ta = read_csv_log(a.log_path), tc = read_csv_log(c.log_path);
   EXPECT_NE(ta.column_values("x"), tc.column_values("x"));

@@ -51,21 +51,21 @@ TEST(Experiment, MinimalFileGetsTheDocumentedDefaults) {
   EXPECT_EQ(e.name, "t");
   EXPECT_EQ(e.source, "mem.yaml");
   EXPECT_EQ(fs::path(e.model_path), fs::path(kModel).lexically_normal());
-  EXPECT_EQ(e.seed, 0u);
+  EXPECT_EQ(e.sim.seed, 0u);
   EXPECT_EQ(e.duration_s, 1.0);
-  EXPECT_EQ(e.physics_dt_s, 0.001);
-  EXPECT_EQ(e.integrator, Integrator::kRk4);
-  EXPECT_TRUE(e.motor_dynamics);
-  EXPECT_FALSE(e.noise.enabled);
-  EXPECT_EQ(e.noise.parameters.drift, OuDrift::kPerSample);
-  EXPECT_EQ(e.noise.parameters.theta[2].a, OuParameters::thesis().theta[2].a);
-  EXPECT_EQ(e.wind_m_s, Vec3::Zero());
-  EXPECT_EQ(e.gravity_m_s2, Vec3(0, 0, -9.81));
-  const DisturbanceSwitches d = e.disturbances;
+  EXPECT_EQ(e.sim.dt_s, 0.001);
+  EXPECT_EQ(e.sim.integrator, Integrator::kRk4);
+  EXPECT_TRUE(e.sim.motor_dynamics);
+  EXPECT_FALSE(e.sim.noise.enabled);
+  EXPECT_EQ(e.sim.noise.parameters.drift, OuDrift::kPerSample);
+  EXPECT_EQ(e.sim.noise.parameters.theta[2].a, OuParameters::thesis().theta[2].a);
+  EXPECT_EQ(e.sim.environment.wind_W_m_s, Vec3::Zero());
+  EXPECT_EQ(e.sim.environment.gravity_W_m_s2, Vec3(0, 0, -9.81));
+  const DisturbanceSwitches d = e.sim.disturbances;
   EXPECT_TRUE(d.rotor_drag && d.rolling_moment && d.drag_moment && d.ground_effect &&
               d.gyroscopic && d.body_drag);
-  EXPECT_TRUE(e.ground.enabled);
-  EXPECT_EQ(e.ground.crash_speed_m_s, GroundConfig{}.crash_speed_m_s);
+  EXPECT_TRUE(e.sim.ground.enabled);
+  EXPECT_EQ(e.sim.ground.crash_speed_m_s, GroundConfig{}.crash_speed_m_s);
   EXPECT_EQ(e.initial_state.position_m, Vec3::Zero());
   EXPECT_EQ(e.initial_state.quaternion_wxyz, Vec4(1, 0, 0, 0));
   EXPECT_EQ(e.initial_state.rotor_speeds.kind, RotorSpeedSetting::Kind::kStopped);
@@ -111,27 +111,27 @@ input:
   const Experiment e = parse_experiment(text, "full.yaml");
   EXPECT_EQ(e.name, "full");
   EXPECT_EQ(e.description, "every key");
-  EXPECT_EQ(e.seed, 18446744073709551615u);
+  EXPECT_EQ(e.sim.seed, 18446744073709551615u);
   EXPECT_EQ(e.duration_s, 2.5);
-  EXPECT_EQ(e.physics_dt_s, 0.002);
-  EXPECT_EQ(e.integrator, Integrator::kEuler);
-  EXPECT_FALSE(e.motor_dynamics);
-  EXPECT_TRUE(e.noise.enabled);
-  EXPECT_EQ(e.noise.parameters.drift, OuDrift::kContinuous);
+  EXPECT_EQ(e.sim.dt_s, 0.002);
+  EXPECT_EQ(e.sim.integrator, Integrator::kEuler);
+  EXPECT_FALSE(e.sim.motor_dynamics);
+  EXPECT_TRUE(e.sim.noise.enabled);
+  EXPECT_EQ(e.sim.noise.parameters.drift, OuDrift::kContinuous);
   for (int k = 0; k < 4; ++k) {
-    EXPECT_EQ(e.noise.parameters.theta[static_cast<std::size_t>(k)].a, 0.5);
-    EXPECT_EQ(e.noise.parameters.theta[static_cast<std::size_t>(k)].b, 0.1);
-    EXPECT_EQ(e.noise.parameters.sigma[static_cast<std::size_t>(k)].a, 0.01);
-    EXPECT_EQ(e.noise.parameters.sigma[static_cast<std::size_t>(k)].b, 0.002);
+    EXPECT_EQ(e.sim.noise.parameters.theta[static_cast<std::size_t>(k)].a, 0.5);
+    EXPECT_EQ(e.sim.noise.parameters.theta[static_cast<std::size_t>(k)].b, 0.1);
+    EXPECT_EQ(e.sim.noise.parameters.sigma[static_cast<std::size_t>(k)].a, 0.01);
+    EXPECT_EQ(e.sim.noise.parameters.sigma[static_cast<std::size_t>(k)].b, 0.002);
   }
-  EXPECT_EQ(e.wind_m_s, Vec3(1, -2, 0.5));
-  EXPECT_EQ(e.gravity_m_s2, Vec3(0, 0, -9.80665));
-  EXPECT_TRUE(e.disturbances.rotor_drag);
-  EXPECT_TRUE(e.disturbances.gyroscopic);
-  EXPECT_FALSE(e.disturbances.ground_effect);
-  EXPECT_FALSE(e.disturbances.body_drag);
-  EXPECT_EQ(e.ground.crash_speed_m_s, 2.0);
-  EXPECT_EQ(e.ground.crash_tilt_rad, 0.5);
+  EXPECT_EQ(e.sim.environment.wind_W_m_s, Vec3(1, -2, 0.5));
+  EXPECT_EQ(e.sim.environment.gravity_W_m_s2, Vec3(0, 0, -9.80665));
+  EXPECT_TRUE(e.sim.disturbances.rotor_drag);
+  EXPECT_TRUE(e.sim.disturbances.gyroscopic);
+  EXPECT_FALSE(e.sim.disturbances.ground_effect);
+  EXPECT_FALSE(e.sim.disturbances.body_drag);
+  EXPECT_EQ(e.sim.ground.crash_speed_m_s, 2.0);
+  EXPECT_EQ(e.sim.ground.crash_tilt_rad, 0.5);
   EXPECT_EQ(e.initial_state.position_m, Vec3(1, 2, 3));
   EXPECT_EQ(e.initial_state.velocity_m_s, Vec3(0.1, 0.2, 0.3));
   EXPECT_EQ(e.initial_state.quaternion_wxyz, math::from_euler(0.1, -0.2, 0.3));
@@ -149,7 +149,7 @@ input:
   EXPECT_EQ(c.dt_s, 0.002);
   EXPECT_EQ(c.integrator, Integrator::kEuler);
   EXPECT_FALSE(c.motor_dynamics);
-  EXPECT_EQ(c.allocation, AllocationMethod::kThesis);
+  EXPECT_EQ(std::get<ConstantGeneralizedForceInput>(e.input).allocation, AllocationMethod::kThesis);
   EXPECT_EQ(c.environment.wind_W_m_s, Vec3(1, -2, 0.5));
   EXPECT_EQ(c.environment.gravity_W_m_s2, Vec3(0, 0, -9.80665));
   EXPECT_FALSE(c.disturbances.ground_effect);
@@ -170,11 +170,11 @@ TEST(Experiment, ScalarShorthands) {
               "initial_state: {position_m: [0, 0, -2], quaternion_wxyz: [0, 1, 0, 0]}\n",
               "input: {type: constant_rotor_speeds, rotor_speeds_rad_s: [1, 2, 3, 4.5]}\n"),
       "s.yaml");
-  EXPECT_TRUE(e.noise.enabled);
-  EXPECT_FALSE(e.disturbances.rotor_drag || e.disturbances.rolling_moment ||
-               e.disturbances.drag_moment || e.disturbances.ground_effect ||
-               e.disturbances.gyroscopic || e.disturbances.body_drag);
-  EXPECT_FALSE(e.ground.enabled);  // which is what allows z < 0
+  EXPECT_TRUE(e.sim.noise.enabled);
+  EXPECT_FALSE(e.sim.disturbances.rotor_drag || e.sim.disturbances.rolling_moment ||
+               e.sim.disturbances.drag_moment || e.sim.disturbances.ground_effect ||
+               e.sim.disturbances.gyroscopic || e.sim.disturbances.body_drag);
+  EXPECT_FALSE(e.sim.ground.enabled);  // which is what allows z < 0
   EXPECT_EQ(e.initial_state.quaternion_wxyz, Vec4(0, 1, 0, 0));
   const auto* c = std::get_if<ConstantRotorSpeedsInput>(&e.input);
   ASSERT_NE(c, nullptr);
@@ -184,8 +184,8 @@ TEST(Experiment, ScalarShorthands) {
 
   const Experiment all =
       parse_experiment(minimal("disturbances: all\nnoise: {drift: per_sample}\n"), "a.yaml");
-  EXPECT_TRUE(all.disturbances.body_drag && all.disturbances.ground_effect);
-  EXPECT_TRUE(all.noise.enabled);  // the map form defaults enabled to true
+  EXPECT_TRUE(all.sim.disturbances.body_drag && all.sim.disturbances.ground_effect);
+  EXPECT_TRUE(all.sim.noise.enabled);  // the map form defaults enabled to true
 }
 
 TEST(Experiment, ShippedExperimentsLoadAndMatchTheirModels) {
@@ -210,10 +210,10 @@ TEST(Experiment, HoverOpenLoopIsTheReadmeDemo) {
   const Experiment e = load_experiment(kExperimentDir + "/hover_open_loop.yaml");
   EXPECT_EQ(fs::path(e.model_path).filename(), "qdrone2.yaml");
   EXPECT_TRUE(fs::equivalent(e.model_path, kModel));
-  EXPECT_EQ(e.seed, 1u);
+  EXPECT_EQ(e.sim.seed, 1u);
   EXPECT_EQ(e.duration_s, 5.0);
-  EXPECT_TRUE(e.noise.enabled);
-  EXPECT_TRUE(e.disturbances.ground_effect && e.disturbances.rotor_drag);
+  EXPECT_TRUE(e.sim.noise.enabled);
+  EXPECT_TRUE(e.sim.disturbances.ground_effect && e.sim.disturbances.rotor_drag);
   EXPECT_EQ(e.initial_state.position_m, Vec3(0, 0, 1));
   EXPECT_EQ(e.initial_state.rotor_speeds.kind, RotorSpeedSetting::Kind::kHover);
   EXPECT_TRUE(std::holds_alternative<HoverInput>(e.input));
@@ -234,7 +234,7 @@ TEST(Experiment, StepOpenLoopSegments) {
   // The explicit numbers are 1.05 and 0.97 times the hover speed, to the written digits.
   EXPECT_NEAR(p->segments[1].rotor_speeds.resolve(model, 9.81)[0], 1.05 * hover, 1e-3);
   EXPECT_NEAR(p->segments[2].rotor_speeds.resolve(model, 9.81)[0], 0.97 * hover, 1e-3);
-  EXPECT_FALSE(e.noise.enabled);
+  EXPECT_FALSE(e.sim.noise.enabled);
   EXPECT_EQ(e.initial_state.position_m, Vec3::Zero());
 }
 
@@ -440,11 +440,11 @@ TEST(ExperimentController, ShippedClosedLoopExperiments) {
   EXPECT_EQ(p.control_rate_hz, 1000.0);
   EXPECT_EQ(p.reference_type, "thesis_pulse");
   EXPECT_EQ(pulse.duration_s, 60.0);
-  EXPECT_EQ(pulse.seed, 1u);
-  EXPECT_TRUE(pulse.noise.enabled);
+  EXPECT_EQ(pulse.sim.seed, 1u);
+  EXPECT_TRUE(pulse.sim.noise.enabled);
   EXPECT_EQ(pulse.initial_state.position_m, Vec3::Zero());
   EXPECT_EQ(pulse.initial_state.rotor_speeds.kind, RotorSpeedSetting::Kind::kStopped);
-  EXPECT_FALSE(load_experiment(kExperimentDir + "/pid_pulse_noise_off.yaml").noise.enabled);
+  EXPECT_FALSE(load_experiment(kExperimentDir + "/pid_pulse_noise_off.yaml").sim.noise.enabled);
   const Experiment printed = load_experiment(kExperimentDir + "/pid_pulse_thesis_gains.yaml");
   EXPECT_EQ(fs::path(std::get<ControllerLoopInput>(printed.input).controller_path).filename(),
             "pid_thesis.yaml");
@@ -455,24 +455,24 @@ TEST(ExperimentController, ShippedClosedLoopExperiments) {
   EXPECT_EQ(c.reference_type, "circle");
   expect_same_reference(*c.reference, CircleReference());
   EXPECT_EQ(circle.duration_s, 35.0);
-  EXPECT_TRUE(circle.noise.enabled);
+  EXPECT_TRUE(circle.sim.noise.enabled);
   EXPECT_TRUE(circle.initial_state.on_reference);
   EXPECT_EQ(circle.initial_state.position_m, Vec3(2, 0, 1));
-  EXPECT_FALSE(load_experiment(kExperimentDir + "/se3_circle_noise_off.yaml").noise.enabled);
+  EXPECT_FALSE(load_experiment(kExperimentDir + "/se3_circle_noise_off.yaml").sim.noise.enabled);
 
   const Experiment hover = load_experiment(kExperimentDir + "/hover_pid.yaml");
   expect_same_reference(*std::get<ControllerLoopInput>(hover.input).reference,
                         SetpointReference(Vec3(0, 0, 1)));
   EXPECT_EQ(hover.initial_state.position_m, Vec3::Zero());
   EXPECT_EQ(hover.duration_s, 10.0);
-  EXPECT_TRUE(hover.noise.enabled);
+  EXPECT_TRUE(hover.sim.noise.enabled);
 }
 
 TEST(ExperimentController, ValidateRechecksTheControlRate) {
   Experiment e = parse_experiment(
       minimal("", controller_input("{type: circle}", "  control_rate_hz: 500\n")), "r.yaml");
   EXPECT_NO_THROW(validate(e));
-  e.physics_dt_s = 0.003;  // 333.3 Hz physics: 500 Hz control is faster than physics
+  e.sim.dt_s = 0.003;  // 333.3 Hz physics: 500 Hz control is faster than physics
   const std::string m = error_of([&] { validate(e); });
   EXPECT_NE(m.find("r.yaml: input.control_rate_hz: expected a rate that divides the physics rate"),
             std::string::npos)

@@ -44,7 +44,9 @@ TEST(ClosedLoop, RunsTheControllerAtItsRateWithAZeroOrderHold) {
   ClosedLoop loop(sim, ctrl, ref, 100.0);
   EXPECT_EQ(loop.steps_per_control(), 10);
   ASSERT_TRUE(loop.run(1.0).ok());
-  ASSERT_EQ(ctrl.times.size(), 100u);
+  // Every 10th step from t = 0, and at t = 1 s: run() leaves the loop updated at its last instant
+  // (a log row there shows the command in effect from then on; a next run() continues it).
+  ASSERT_EQ(ctrl.times.size(), 101u);
   for (std::size_t k = 0; k < ctrl.times.size(); ++k)
     EXPECT_NEAR(ctrl.times[k], 0.01 * static_cast<double>(k), 1e-12);
   // Hover thrust through the exact allocation keeps the vehicle at 1 m.
@@ -62,12 +64,14 @@ TEST(ClosedLoop, ControllerSeesTheMeasuredState) {
   SetpointReference ref(Vec3(0, 0, 1));
   ClosedLoop loop(sim, ctrl, ref, 1000.0);
   loop.run(0.05);
-  // The last call saw the state before the last step: replay it.
+  // The last call (at t = 0.05 s, after the last step) saw the measured state then: replay it.
   Simulator replay(model, cfg);
   replay.reset(Simulator::hover_state(Vec3(0, 0, 1)), model->hover_speeds_rad_s());
   Recorder ctrl2(model);
   ClosedLoop loop2(replay, ctrl2, ref, 1000.0);
   loop2.run(0.049);
+  loop2.step();
+  EXPECT_EQ(ctrl.seen.size(), 51u);
   EXPECT_EQ(ctrl.seen.back(), replay.measured_state());
   EXPECT_NE(ctrl.seen.back(), replay.state());
 }

@@ -184,13 +184,13 @@ TEST(FitDiagnostics, MassWithEveryForceAndInertiaIsFlagged) {
   Experiment e =
       load_experiment(test::source_path("config/experiments/identification_flight.yaml"));
   e.duration_s = 10.0;
-  e.disturbances.gyroscopic = e.disturbances.rolling_moment = false;
+  e.sim.disturbances.gyroscopic = e.sim.disturbances.rolling_moment = false;
   const FlightData data = fly_experiment(e, model);
   FitOptions o;
   o.parameters =
       parse_parameter_list("mass,thrust,body_drag,rotor_drag,inertia,yaw_moment_per_thrust");
   o.method = FitMethod::kEquationError;
-  o.switches = e.disturbances;
+  o.switches = e.sim.disturbances;
   const FitResult r = fit_model(*model, data, o);
   std::string all;
   for (const std::string& w : r.warnings) all += w + "\n";

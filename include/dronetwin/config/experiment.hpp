@@ -159,16 +159,12 @@ struct Experiment {
   /// Model file, resolved: relative to the experiment file's directory if it exists there,
   /// otherwise relative to the current directory.
   std::string model_path;
-  std::uint64_t seed = 0;
   double duration_s = 0.0;
-  double physics_dt_s = 1.0e-3;
-  Integrator integrator = Integrator::kRk4;
-  bool motor_dynamics = true;
-  NoiseConfig noise{};
-  Vec3 wind_m_s = Vec3::Zero();
-  Vec3 gravity_m_s2 = Vec3(0.0, 0.0, -9.81);
-  DisturbanceSwitches disturbances{};
-  GroundConfig ground{};
+  /// The simulator's settings: physics step, integrator, motor lag, noise, wind, gravity,
+  /// disturbance switches, ground, divergence limits and seed (the file's top-level keys
+  /// physics_dt_s, integrator, motor_dynamics, noise, wind_m_s, gravity_m_s2, disturbances,
+  /// ground, divergence and seed; docs/experiment-format.md).
+  SimConfig sim{};
   InitialStateSpec initial_state{};
   LogSettings log{};
   MetricsSettings metrics{};
@@ -179,8 +175,8 @@ struct Experiment {
   /// Physics steps of the run: duration_s / physics_dt_s rounded up (a duration within 1e-9 steps
   /// of a whole multiple gives exactly that multiple).
   std::int64_t num_steps() const;
-  /// |gravity_m_s2|, the g used for hover speeds.
-  double gravity_magnitude() const { return gravity_m_s2.norm(); }
+  /// |gravity|, the g used for hover speeds.
+  double gravity_magnitude() const { return sim.environment.gravity_W_m_s2.norm(); }
 };
 
 /// Reads and checks an experiment file (everything that does not need the model; the model file

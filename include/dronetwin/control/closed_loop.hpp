@@ -20,17 +20,45 @@
 // optional real-time pacing, which sleeps so that simulated time advances no faster than wall
 // time (real-time factor 1, for hardware in the loop); achieved_real_time_factor() reports it.
 //
+// run() is THE run loop of dronetwin: the experiment runner, Python's record() and plain runs all
+// go through it. An observer sees the loop at the start and after every step, once the
+// controller has run for that instant (the row of a log at time t shows the command in effect
+// from t on), and once more when the run stops:
+//
+//   struct Log : LoopObserver {
+//     void observe(const ClosedLoop& l) override { rows.push_back(l.simulator().state()); }
+//     std::vector<StateVector> rows;
+//   } log;
+//   StepResult r = loop.run(10.0, &log);     // r.status: ok, non_finite, diverged or
+//                                            // controller_failed (loop.failure_message() says why)
+//
 // Trap: the loop keys "already ran" on Simulator::step_count(). After Simulator::reset() (the
 // count starts again at 0) build a new ClosedLoop, or the controller would skip step 0.
 
 #include <chrono>
 #include <cstdint>
+#include <string>
 
 #include "dronetwin/control/controller_base.hpp"
 #include "dronetwin/control/reference.hpp"
 #include "dronetwin/sim/simulator.hpp"
 
 namespace dronetwin {
+
+class ClosedLoop;
+
+/// What run() shows a run to (logs, statistics, recorders).
+class LoopObserver {
+ public:
+  virtual ~LoopObserver() = default;
+  /// At the start and after every step, after the controller has run for that instant.
+  virtual void observe(const ClosedLoop& loop) = 0;
+  /// Once, when the run stops: finished, refused by the simulator, or the controller failed.
+  virtual void finish(const ClosedLoop& loop, const StepResult& result) {
+    (void)loop;
+    (void)result;
+  }
+};
 
 class ClosedLoop {
  public:
@@ -46,8 +74,18 @@ class ClosedLoop {
   bool update();
   /// One physics step: update(), Simulator::step(), then real-time pacing if enabled.
   StepResult step();
-  /// Steps until `duration_s` of simulated time has passed (or the run fails).
-  StepResult run(double duration_s);
+  /// Steps until `duration_s` of simulated time has passed (steps_for(duration_s, dt) steps) or
+  /// the run fails, showing every instant to `observer` (may be null). A controller that throws
+  /// (a non-finite command, or an InvalidArgument such as a non-finite reference) ends the run with
+  /// status controller_failed and its message in failure_message(); nothing is stepped after it.
+  StepResult run(double duration_s, LoopObserver* observer = nullptr);
+
+  /// Physics steps in `duration_s`: duration_s / dt_s rounded up, a duration within 1e-9 steps of
+  /// a whole multiple giving exactly that multiple (as Experiment::num_steps()).
+  static std::int64_t steps_for(double duration_s, double dt_s);
+
+  /// Why run() stopped with controller_failed; empty otherwise.
+  const std::string& failure_message() const { return failure_message_; }
 
   void set_real_time(bool on) { real_time_ = on; }
   bool real_time() const { return real_time_; }
@@ -73,6 +111,8 @@ class ClosedLoop {
 
  private:
   void control();
+  /// update() for run(): a controller failure becomes `result.status` and failure_message_.
+  bool guarded_update(StepResult& result);
 
   Simulator& sim_;
   ControllerBase& controller_;
@@ -89,6 +129,7 @@ class ClosedLoop {
   std::chrono::steady_clock::time_point wall_start_{};
   double sim_start_s_ = 0.0;
   bool started_ = false;
+  std::string failure_message_;
 };
 
 }  // namespace dronetwin

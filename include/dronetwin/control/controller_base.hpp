@@ -57,6 +57,9 @@ class ControllerBase {
   virtual std::unique_ptr<ControllerBase> clone() const = 0;
   /// Clears internal memory (integrators, previous errors) before a new run.
   virtual void reset() {}
+  /// False for controllers that ignore ControlInput::state_derivative (open-loop schedules): the
+  /// loop then leaves it zero instead of evaluating the force model for it.
+  virtual bool uses_state_derivative() const { return true; }
 
   /// Diagnostics: names of per-update values a controller reports (an NMPC's solve statistics,
   /// say). The experiment runner logs them as `ctrl_<name>` columns and summarises them in

@@ -73,18 +73,46 @@ inline AllocationResult allocate_with_saturation(const VehicleModel& model,
   return r;
 }
 
+/// Rotor speed references for generalized forces u with `method`, and what they achieve. kExact
+/// is allocate_with_saturation(); kThesis is Eq. 2.31 as printed, clipped per rotor, `saturated`
+/// when the achieved force differs from u (by more than 1e-6 relative).
+inline AllocationResult allocate(const VehicleModel& model, const GeneralizedForce& u,
+                                 AllocationMethod method = AllocationMethod::kExact) {
+  if (method == AllocationMethod::kExact) return allocate_with_saturation(model, u);
+  const int n = model.num_rotors();
+  const RotorVector thrusts = model.thrusts_for(u);
+  AllocationResult r;
+  r.speeds_rad_s.resize(n);
+  r.thrusts_N.resize(n);
+  for (int i = 0; i < n; ++i) {
+    const RotorParams& rp = model.rotor(i);
+    const double w2 = thrusts[i] / rp.thrust_coefficients[0];
+    r.speeds_rad_s[i] =
+        std::clamp(w2 > 0.0 ? std::sqrt(w2) : 0.0, rp.min_speed_rad_s, rp.max_speed_rad_s);
+    r.thrusts_N[i] = rp.thrust(r.speeds_rad_s[i]);
+  }
+  r.achieved = model.allocation_matrix() * r.thrusts_N;
+  r.moment_scale = 1.0;
+  r.saturated = (r.achieved - u).norm() > 1e-6 * (1 + u.norm());
+  return r;
+}
+
+/// The speed references alone (allocate(model, u, method).speeds_rad_s).
 inline RotorVector allocate_speeds(const VehicleModel& model, const GeneralizedForce& u,
                                    AllocationMethod method = AllocationMethod::kExact) {
-  if (method == AllocationMethod::kExact) return allocate_with_saturation(model, u).speeds_rad_s;
-  // Thesis Eq. 2.31 as printed: clip per rotor.
-  const RotorVector thrusts = model.thrusts_for(u);
-  RotorVector w(model.num_rotors());
+  return allocate(model, u, method).speeds_rad_s;
+}
+
+/// The generalized force [T, tau] that rotor speed commands produce once the motors clamp them to
+/// their limits: A * T_i(clamp(w_i)).
+inline GeneralizedForce generalized_force_of(const VehicleModel& model,
+                                             const RotorVector& speeds_rad_s) {
+  RotorVector thrusts(model.num_rotors());
   for (int i = 0; i < model.num_rotors(); ++i) {
     const RotorParams& r = model.rotor(i);
-    const double w2 = thrusts[i] / r.thrust_coefficients[0];
-    w[i] = std::clamp(w2 > 0.0 ? std::sqrt(w2) : 0.0, r.min_speed_rad_s, r.max_speed_rad_s);
+    thrusts[i] = r.thrust(std::clamp(speeds_rad_s[i], r.min_speed_rad_s, r.max_speed_rad_s));
   }
-  return w;
+  return model.allocation_matrix() * thrusts;
 }
 
 }  // namespace dronetwin

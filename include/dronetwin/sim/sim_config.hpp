@@ -8,7 +8,6 @@
 #include "dronetwin/dynamics/ground.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
 #include "dronetwin/integrators/integrator.hpp"
-#include "dronetwin/model/allocation.hpp"
 #include "dronetwin/noise/ornstein_uhlenbeck.hpp"
 
 namespace dronetwin {
@@ -32,8 +31,6 @@ struct SimConfig {
   Integrator integrator = Integrator::kRk4;
   /// First-order motor lag (Eq. 2.43-2.45). Off: rotor speed = clamped reference at once.
   bool motor_dynamics = true;
-  /// How set_generalized_force() turns [T, tau] into rotor speeds.
-  AllocationMethod allocation = AllocationMethod::kExact;
   DisturbanceSwitches disturbances{};
   Environment environment{};
   NoiseConfig noise{};

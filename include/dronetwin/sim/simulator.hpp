@@ -35,6 +35,7 @@
 #include "dronetwin/dynamics/ground.hpp"
 #include "dronetwin/dynamics/motor.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
+#include "dronetwin/model/allocation.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
 #include "dronetwin/noise/ornstein_uhlenbeck.hpp"
 #include "dronetwin/noise/random.hpp"
@@ -129,8 +130,9 @@ class Simulator {
   /// Rotor speed references, rad/s, one per rotor. Non-finite or wrong size: InvalidArgument.
   void set_rotor_speed_reference(const RotorVector& reference_rad_s);
   /// Generalized forces [T, tau_x, tau_y, tau_z], allocated to rotor speed references with
-  /// config().allocation.
-  void set_generalized_force(const GeneralizedForce& u);
+  /// `method` (model/allocation.hpp).
+  void set_generalized_force(const GeneralizedForce& u,
+                             AllocationMethod method = AllocationMethod::kExact);
 
   // ---- step ---------------------------------------------------------------------------------
   StepResult step();
