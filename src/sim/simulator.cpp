@@ -163,18 +163,20 @@ void Simulator::set_wind(const Vec3& wind_W_m_s) {
 
 StepStatus Simulator::check_state(const StateVector& x) const {
   using namespace state_index;
-  if (!x.allFinite()) return StepStatus::kNonFinite;
   const DivergenceLimits& lim = config_.divergence;
   // Squared norms against squared limits (the limits are positive): no square roots on the
-  // path taken every step.
+  // path taken every step. A NaN or inf anywhere makes its block's squared norm fail the
+  // comparison too, so one test covers both; which failure it was is sorted out only then.
   const double p2 = x.segment<3>(kPosition).squaredNorm(),
                v2 = x.segment<3>(kVelocity).squaredNorm(),
+               q2 = x.segment<4>(kQuaternion).squaredNorm(),
                w2 = x.segment<3>(kAngularVelocity).squaredNorm();
-  if (p2 > lim.max_position_m * lim.max_position_m || v2 > lim.max_speed_m_s * lim.max_speed_m_s ||
-      w2 > lim.max_angular_speed_rad_s * lim.max_angular_speed_rad_s) {
-    return StepStatus::kDiverged;
+  if (p2 <= lim.max_position_m * lim.max_position_m &&
+      v2 <= lim.max_speed_m_s * lim.max_speed_m_s &&
+      w2 <= lim.max_angular_speed_rad_s * lim.max_angular_speed_rad_s && q2 <= 4.0) {
+    return StepStatus::kOk;
   }
-  return StepStatus::kOk;
+  return x.allFinite() ? StepStatus::kDiverged : StepStatus::kNonFinite;
 }
 
 std::string Simulator::failure_message() const {
@@ -203,9 +205,11 @@ StepResult Simulator::step() {
   }
   // Rotor speeds are held over the step: do their part of the force model once.
   const ForceKernel<double>& kernel = *kernel_;
-  kernel.prepare(data_.rotor_speed_rad_s, held_);
-  const auto f = [&](const StateVector& x) {
-    return kernel.derivative(held_, x, config_.environment);
+  HeldRotorTerms<double> held;
+  kernel.prepare(data_.rotor_speed_rad_s, held);
+  const Environment& env = config_.environment;
+  const auto f = [&kernel, &held, &env](const StateVector& x) {
+    return kernel.derivative(held, x, env);
   };
   StateVector next = integrate_step(config_.integrator, data_.state, config_.dt_s, f);
   normalize_quaternion(next);

@@ -11,6 +11,8 @@
 // fit evaluates a logged (double) state with parameters that carry derivatives (S = Jet), so the
 // state-only parts stay cheap doubles. The result is in S.
 
+#include <type_traits>
+
 #include "dronetwin/core/types.hpp"
 #include "dronetwin/math/quaternion.hpp"
 
@@ -18,6 +20,26 @@ namespace dronetwin {
 
 template <class T>
 using StateVectorT = Eigen::Matrix<T, kStateSize, 1>;
+
+namespace detail {
+/// Writes the state-only blocks of x_dot (p_dot = v, q_dot = 1/2 q (x) [0, w]) into d. Without a
+/// cast when state and result share the scalar: Eigen's same-type cast still builds an
+/// expression, and the compiler then assembles q_dot through the stack.
+template <class S, class X>
+DRONETWIN_HOT_INLINE void kinematics(const StateVectorT<X>& x, const Vector3<X>& w_B,
+                                     StateVectorT<S>& d) {
+  using namespace state_index;
+  if constexpr (std::is_same_v<S, X>) {
+    d.template segment<3>(kPosition) = x.template segment<3>(kVelocity);
+    d.template segment<4>(kQuaternion) =
+        math::derivative<X>(x.template segment<4>(kQuaternion), w_B);
+  } else {
+    d.template segment<3>(kPosition) = x.template segment<3>(kVelocity).template cast<S>();
+    d.template segment<4>(kQuaternion) =
+        math::derivative<X>(x.template segment<4>(kQuaternion), w_B).template cast<S>();
+  }
+}
+}  // namespace detail
 
 /// Eq. 2.39 / 2.42: w_dot = J^-1 (M - w x J w).
 template <class S, class X, class J>
@@ -49,10 +71,8 @@ DRONETWIN_HOT_INLINE StateVectorT<S> newton_euler(const StateVectorT<X>& x, cons
   using namespace state_index;
   const Vector3<X> w = x.template segment<3>(kAngularVelocity);
   StateVectorT<S> d;
-  d.template segment<3>(kPosition) = x.template segment<3>(kVelocity).template cast<S>();
+  detail::kinematics(x, w, d);
   d.template segment<3>(kVelocity) = R * F_B / mass_kg + gravity_W;
-  d.template segment<4>(kQuaternion) =
-      math::derivative<X>(x.template segment<4>(kQuaternion), w).template cast<S>();
   d.template segment<3>(kAngularVelocity) = angular_acceleration(inertia, inertia_inv, w, M_B);
   return d;
 }
@@ -65,10 +85,8 @@ DRONETWIN_HOT_INLINE StateVectorT<S> newton_euler_diagonal_inertia(
   using namespace state_index;
   const Vector3<X> w = x.template segment<3>(kAngularVelocity);
   StateVectorT<S> d;
-  d.template segment<3>(kPosition) = x.template segment<3>(kVelocity).template cast<S>();
+  detail::kinematics(x, w, d);
   d.template segment<3>(kVelocity) = R * F_B / mass_kg + gravity_W;
-  d.template segment<4>(kQuaternion) =
-      math::derivative<X>(x.template segment<4>(kQuaternion), w).template cast<S>();
   d.template segment<3>(kAngularVelocity) = angular_acceleration_diagonal(j, j_inv, w, M_B);
   return d;
 }
