@@ -37,6 +37,11 @@ void bind_io(py::module_& m) {
       .def_readwrite("wrench_breakdown", &LogSettings::wrench_breakdown)
       .def_readwrite("measured", &LogSettings::measured);
 
+  py::class_<MetricsSettings>(m, "MetricsSettings", "Where a closed-loop run's RMSE is taken.")
+      .def(py::init<>())
+      .def_readwrite("window_s", &MetricsSettings::window_s,
+                     "(t0, t1) in s, 0 <= t0 < t1, or None for the whole run.");
+
   py::class_<Experiment>(
       m, "Experiment",
       "An experiment file (docs/experiment-format.md), loaded and checked. Fields may be edited\n"
@@ -87,6 +92,7 @@ void bind_io(py::module_& m) {
           "divergence", [](const Experiment& e) { return e.sim.divergence; },
           [](Experiment& e, const DivergenceLimits& v) { e.sim.divergence = v; })
       .def_readwrite("log", &Experiment::log)
+      .def_readwrite("metrics", &Experiment::metrics)
       .def_property_readonly(
           "input_type", [](const Experiment& e) { return std::string(input_type_name(e.input)); })
       .def_property(

@@ -4,6 +4,8 @@
 #include <cmath>
 
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/dynamics/force_kernel.hpp"
+#include "dronetwin/math/quaternion.hpp"
 
 namespace dronetwin {
 
@@ -13,27 +15,32 @@ VerticalFitResult fit_vertical(const LogTable& log, const VehicleModel& model,
           "fit_vertical: train_fraction must be in (0, 1), got ", options.train_fraction);
   const int nr = model.num_rotors();
   const std::size_t ct = log.column("t"), cz = log.column("z"), cvz = log.column("vz"),
-                    cqx = log.column("qx"), cqy = log.column("qy"), ca = log.column("acc_z");
+                    cqw = log.column("qw"), cqx = log.column("qx"), cqy = log.column("qy"),
+                    cqz = log.column("qz"), ca = log.column("acc_z");
   std::vector<std::size_t> comega;
   for (int i = 0; i < nr; ++i) comega.push_back(log.column("omega_" + std::to_string(i)));
 
   VerticalFitResult r;
   r.prior_mass_kg = options.prior_mass_kg > 0.0 ? options.prior_mass_kg : model.mass_kg();
+  // The thrust term of the force kernel alone (Eq. 2.22 along each rotor axis).
+  const ForceKernel<double> thrust_only(model, ForceTerms::only(Term::kThrust));
+  HeldRotorTerms<double> held;
+  RotorVector speeds(nr);
   for (std::size_t row = 0; row < log.rows(); ++row) {
     if (!(log.at(row, cz) > options.min_height_m)) continue;
-    double thrust = 0.0;
     bool spinning = true;
     for (int i = 0; i < nr; ++i) {
-      const double w = log.at(row, comega[static_cast<std::size_t>(i)]);
-      spinning = spinning && w > 0.0;
-      thrust += model.rotor(i).thrust(w);
+      speeds[i] = log.at(row, comega[static_cast<std::size_t>(i)]);
+      spinning = spinning && speeds[i] > 0.0;
     }
     if (!spinning) continue;
-    const double qx = log.at(row, cqx), qy = log.at(row, cqy);
-    const double r33 = 1.0 - 2.0 * (qx * qx + qy * qy);  // R(q)(2,2) for a unit quaternion
+    thrust_only.prepare(speeds, held);  // thrust is state independent: the constant part
+    Vec4 q(log.at(row, cqw), log.at(row, cqx), log.at(row, cqy), log.at(row, cqz));
+    q.normalize();
+    const Mat3 R = math::rotation_matrix<double>(q);
     r.t_s.push_back(log.at(row, ct));
     r.lhs_m_s2.push_back(log.at(row, ca));  // specific force, already includes g
-    r.thrust_z_N.push_back(r33 * thrust);
+    r.thrust_z_N.push_back(R.row(2).dot(held.constant.head<3>()));  // world z of the thrust
     r.vz_m_s.push_back(log.at(row, cvz));
   }
   const std::size_t n = r.t_s.size();

@@ -103,6 +103,72 @@ TEST(ClosedLoop, NonFiniteControllerOutputIsReportedNotFlown) {
   EXPECT_TRUE(sim.state().allFinite());
 }
 
+TEST(ClosedLoop, RunEndsWithControllerFailedAndShowsTheObserverEveryInstant) {
+  // A controller that turns NaN at t = 20 ms: run() stops there with its own status, keeps the
+  // good steps, and the observer saw t = 0 .. 19 ms, then finish() with the status.
+  class FailsLater : public Recorder {
+   public:
+    using Recorder::Recorder;
+
+   protected:
+    GeneralizedForce do_calculate_u(const ControlInput& in) override {
+      poison = in.time_s >= 0.02 - 1e-12;
+      return Recorder::do_calculate_u(in);
+    }
+  };
+  struct Watch : LoopObserver {
+    std::vector<double> t;
+    StepResult end;
+    int finished = 0;
+    void observe(const ClosedLoop& l) override { t.push_back(l.simulator().time_s()); }
+    void finish(const ClosedLoop&, const StepResult& r) override {
+      end = r;
+      ++finished;
+    }
+  };
+  const auto model = test::load_model("qdrone2");
+  Simulator sim(model);
+  sim.reset(Simulator::hover_state(Vec3(0, 0, 1)), model->hover_speeds_rad_s());
+  FailsLater ctrl(model);
+  SetpointReference ref(Vec3(0, 0, 1));
+  ClosedLoop loop(sim, ctrl, ref, 1000.0);
+  Watch watch;
+  const StepResult r = loop.run(1.0, &watch);
+  EXPECT_EQ(r.status, StepStatus::kControllerFailed);
+  EXPECT_EQ(r.steps_taken, 20);
+  EXPECT_EQ(sim.step_count(), 20);
+  EXPECT_TRUE(sim.status() == StepStatus::kOk);  // the simulator itself did not fail
+  EXPECT_NE(loop.failure_message().find("recorder"), std::string::npos) << loop.failure_message();
+  ASSERT_EQ(watch.t.size(), 20u);
+  EXPECT_NEAR(watch.t.back(), 0.019, 1e-12);
+  EXPECT_EQ(watch.finished, 1);
+  EXPECT_EQ(watch.end.status, StepStatus::kControllerFailed);
+}
+
+TEST(ClosedLoop, ANonFiniteReferenceEndsTheRunWithAStatus) {
+  class Breaks : public Reference {
+   public:
+    ReferencePoint at(double t_s) const override {
+      ReferencePoint p;
+      p.position_m = Vec3(0, 0, t_s < 0.005 ? 1.0 : NAN);
+      return p;
+    }
+    std::unique_ptr<Reference> clone() const override { return std::make_unique<Breaks>(); }
+    std::string describe() const override { return "breaks"; }
+  };
+  const auto model = test::load_model("qdrone2");
+  Simulator sim(model);
+  sim.reset(Simulator::hover_state(Vec3(0, 0, 1)), model->hover_speeds_rad_s());
+  Recorder ctrl(model);
+  Breaks ref;
+  ClosedLoop loop(sim, ctrl, ref, 1000.0);
+  const StepResult r = loop.run(1.0);
+  EXPECT_EQ(r.status, StepStatus::kControllerFailed);
+  EXPECT_EQ(r.steps_taken, 5);
+  EXPECT_NE(loop.failure_message().find("reference at t = 0.005"), std::string::npos)
+      << loop.failure_message();
+}
+
 TEST(ClosedLoop, RealTimePacingReachesAboutOne) {
   const auto model = test::load_model("qdrone2");
   Simulator sim(model);

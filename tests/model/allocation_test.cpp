@@ -63,6 +63,30 @@ TEST(Allocation, ThesisAllocationOverThrustsAtHover) {
   EXPECT_GT(real_thrust / kMg, 1.30);  // notes #38: about 32 % above the command
   EXPECT_LT(real_thrust / kMg, 1.34);
   EXPECT_NEAR(w_expected, 1374.2, 0.5);
+  // allocate() reports what those speeds achieve: 32 % more thrust than asked, so saturated.
+  const AllocationResult r =
+      allocate(*model, GeneralizedForce(kMg, 0, 0, 0), AllocationMethod::kThesis);
+  EXPECT_EQ(r.speeds_rad_s, w);
+  EXPECT_NEAR(r.achieved[0], real_thrust, 1e-9);
+  EXPECT_TRUE(r.saturated);
+  EXPECT_EQ(r.moment_scale, 1.0);
+}
+
+TEST(Allocation, GeneralizedForceOfClampsTheCommandsFirst) {
+  const auto model = test::load_model("qdrone2");
+  RotorVector w(4);
+  w << 5000.0, -10.0, 1200.0, 1300.0;  // beyond the maximum, below the minimum, inside
+  const GeneralizedForce u = generalized_force_of(*model, w);
+  RotorVector clamped = w;
+  clamped[0] = model->rotor(0).max_speed_rad_s;
+  clamped[1] = model->rotor(1).min_speed_rad_s;
+  RotorVector thrusts(4);
+  for (int i = 0; i < 4; ++i) thrusts[i] = model->rotor(i).thrust(clamped[i]);
+  EXPECT_TRUE(u.isApprox(model->allocation_matrix() * thrusts, 1e-15));
+  // and an exact allocation of a feasible force round-trips through it
+  const GeneralizedForce want(15.0, 0.05, -0.02, 0.01);
+  EXPECT_TRUE(
+      generalized_force_of(*model, allocate(*model, want).speeds_rad_s).isApprox(want, 1e-9));
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 
 #include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/core/error.hpp"
+#include "test_support.hpp"
 
 namespace dronetwin {
 namespace {
@@ -297,6 +298,41 @@ TEST(VehicleModelDerived, AxisIsNormalised) {
   for (int i = 0; i < 4; ++i) EXPECT_EQ(m.rotor(i).axis, Vec3::UnitZ());
   EXPECT_EQ(m.allocation_matrix(),
             VehicleModel(load_vehicle_model(kModels + "qdrone2.yaml")).allocation_matrix());
+}
+
+}  // namespace
+}  // namespace dronetwin
+
+namespace dronetwin {
+namespace {
+
+TEST(VehicleModelTpl, CastKeepsEveryParameterAndTheGeometry) {
+  const auto model = test::load_model("tilted_hexarotor");
+  const VehicleModelTpl<float> f = model->cast<float>();
+  EXPECT_EQ(f.num_rotors(), model->num_rotors());
+  EXPECT_EQ(f.mass_kg(), static_cast<float>(model->mass_kg()));
+  EXPECT_TRUE(f.inertia_kgm2().isApprox(model->inertia_kgm2().cast<float>()));
+  EXPECT_EQ(f.inertia_is_diagonal(), model->inertia_is_diagonal());
+  for (int i = 0; i < model->num_rotors(); ++i) {
+    EXPECT_EQ(f.rotor(i).spin, model->rotor(i).spin);
+    EXPECT_EQ(f.rotor(i).axis, model->rotor(i).axis.cast<float>());
+    EXPECT_EQ(f.rotor(i).thrust_coefficients[0],
+              static_cast<float>(model->rotor(i).thrust_coefficients[0]));
+    EXPECT_EQ(f.rotor(i).max_speed_rad_s, static_cast<float>(model->rotor(i).max_speed_rad_s));
+  }
+}
+
+TEST(VehicleModelTpl, EditedDerivesTheInverseInertiaAgainAndLeavesTheOriginal) {
+  const auto model = test::load_model("qdrone2");
+  const VehicleModelTpl<double> heavier = model->edited([](VehicleParametersTpl<double>& p) {
+    p.mass_kg *= 1.1;
+    p.inertia_kgm2(0, 1) = p.inertia_kgm2(1, 0) = 1e-4;  // no longer principal axes
+  });
+  EXPECT_DOUBLE_EQ(heavier.mass_kg(), 1.1 * model->mass_kg());
+  EXPECT_TRUE((heavier.inertia_kgm2() * heavier.inertia_inverse()).isIdentity(1e-12));
+  EXPECT_FALSE(heavier.inertia_is_diagonal());
+  EXPECT_TRUE(model->inertia_is_diagonal());
+  EXPECT_EQ(model->mass_kg(), model->spec().mass_kg);
 }
 
 }  // namespace

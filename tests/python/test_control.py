@@ -246,3 +246,47 @@ def test_python_controller_diagnostics_are_recorded(qdrone2):
     log = dt.ClosedLoop(sim, ctrl, dt.SetpointReference([0.0, 0.0, 1.0]), 100.0).record(0.5, 10)
     assert log["diagnostic_names"] == ["thrust_N"]
     assert np.allclose(log["diagnostics"][:, 0], log["u"][:, 0])
+
+
+class TurnsNaN(dt.ControllerBase):
+    """Hover thrust until t = 0.05 s, then NaN."""
+
+    def calculate_u(self, inp):
+        if inp.time_s >= 0.05 - 1e-12:
+            return [float("nan"), 0.0, 0.0, 0.0]
+        return [self.model.mass_kg * 9.81, 0.0, 0.0, 0.0]
+
+
+def test_record_keeps_the_flight_up_to_a_failing_controller(qdrone2):
+    sim = start_hovering(qdrone2)
+    loop = dt.ClosedLoop(sim, TurnsNaN(qdrone2), dt.SetpointReference([0.0, 0.0, 1.0]), 1000.0)
+    log = loop.record(1.0)
+    assert log["status"] == dt.StepStatus.CONTROLLER_FAILED
+    assert "TurnsNaN" in log["failure_message"] and "non-finite" in log["failure_message"]
+    assert loop.failure_message == log["failure_message"]
+    # rows at t = 0 .. 49 ms, then the last good state (t = 50 ms), nothing after
+    assert log["t"].shape == (51,)
+    np.testing.assert_allclose(log["t"], np.arange(51) * 1e-3, atol=1e-12)
+    assert np.all(np.isfinite(log["state"]))
+
+
+def test_rmse_is_the_runners_metric_to_the_bit(qdrone2, tmp_path):
+    # The same flight through the runner (summary.json) and through the log it wrote
+    # (dronetwin.rmse over its rows): identical numbers, window edges included.
+    e = dt.load_experiment(source_path("config", "experiments", "se3_circle_noise_off.yaml"))
+    e.duration_s = 3.0
+    e.log.every_n_steps = 1  # a row at every physics step, where the runner takes its RMSE
+    s = dt.run_experiment(e, str(tmp_path / "run"))
+    log = dt.read_log(tmp_path / "run")
+    record = {
+        "t": log["t"],
+        "state": np.column_stack([log[c] for c in dt.STATE_COLUMNS]),
+        "reference": np.column_stack([log[c] for c in ("ref_x", "ref_y", "ref_z", "ref_yaw")]),
+        "dt_s": e.physics_dt_s,
+    }
+    np.testing.assert_array_equal(dt.rmse(record), s.closed_loop.rmse)
+    # a window whose ends fall on steps (and one a hair before a step) is the same in both
+    for window in [(0.5, 2.0), (0.5 - 1e-13, 2.0)]:
+        e.metrics.window_s = window
+        w = dt.run_experiment(e, str(tmp_path / "window"))
+        np.testing.assert_array_equal(dt.rmse(record, window_s=window), w.closed_loop.rmse)

@@ -3,11 +3,13 @@
 // rotor speeds, attitude and world-frame specific force acc_z = dvz/dt + g, e.g. from
 // io/crazypad_import.hpp):
 //
-//   acc_z = dvz/dt + g = c F_z - d vz,   F_z = R_33(q) sum_i T_i(omega_i)
+//   acc_z = dvz/dt + g = c F_z - d vz,   F_z = [R(q) sum_i T_i(omega_i) a_i]_z
 //
-// with T_i the model's thrust polynomial (Eq. 2.22), R_33 = cos(roll) cos(pitch) the z component
-// of the body z axis, c = s / m the thrust scale per unit mass (1/kg) and d = k_z / m a linear
-// vertical drag per unit mass (1/s). If the stand thrust is taken as true (s = 1), m = 1 / c.
+// with T_i the model's thrust polynomial (Eq. 2.22) along rotor axis a_i, evaluated by the force
+// kernel with the thrust term alone (for coplanar rotors F_z = R_33 sum_i T_i, R_33 =
+// cos(roll) cos(pitch) the z component of the body z axis), c = s / m the thrust scale per unit
+// mass (1/kg) and d = k_z / m a linear vertical drag per unit mass (1/s). If the stand thrust is
+// taken as true (s = 1), m = 1 / c.
 //
 //   VerticalFitResult r = fit_vertical(read_csv_log("E8.csv"), model);
 //   r.fit.coefficients  -> c, d;  r.mass_kg = 1 / c;  r.rms_test_m_s2 vs r.rms_test_prior_m_s2
