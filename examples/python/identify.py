@@ -43,7 +43,7 @@ def main():
     flight_file = "identification_flight_noise.yaml" if args.noise else "identification_flight.yaml"
     e = dt.load_experiment(os.path.join(root, "config", "experiments", flight_file))
     e.duration_s = min(e.duration_s, args.duration)
-    summary = dt.run_experiment(e, args.out, dt.VehicleModel(truth))
+    summary = dt.run_experiment(e, args.out, dt.VehicleModel(truth), overwrite=True)
     if not summary.ok:
         print(summary.failure_message, file=sys.stderr)
         return 1

@@ -36,7 +36,7 @@ def main():
         if args.duration:
             e.duration_s = min(e.duration_s, args.duration)
         out = os.path.join(args.out, name)
-        summary = dt.run_experiment(e, out)  # the GIL is released while it flies
+        summary = dt.run_experiment(e, out, overwrite=True)  # GIL released while it flies
         if not summary.ok:
             print(f"{name}: {summary.failure_message}", file=sys.stderr)
             return 1

@@ -22,10 +22,10 @@ ControllerLoopInput& controller_input(Experiment& e) {
 }
 
 RunSummary run(const Experiment& e, const std::string& out_dir,
-               const std::shared_ptr<VehicleModel>& model) {
+               const std::shared_ptr<VehicleModel>& model, bool overwrite) {
   py::gil_scoped_release release;
-  if (model) return run_experiment(e, model, out_dir);
-  return run_experiment(e, out_dir);
+  if (model) return run_experiment(e, model, out_dir, overwrite);
+  return run_experiment(e, out_dir, overwrite);
 }
 
 }  // namespace
@@ -160,6 +160,7 @@ void bind_io(py::module_& m) {
       .def_readonly("duration_s", &RunSummary::duration_s)
       .def_readonly("status", &RunSummary::status)
       .def_readonly("failure_message", &RunSummary::failure_message)
+      .def_readonly("warnings", &RunSummary::warnings)
       .def_property_readonly("ok", &RunSummary::ok)
       .def_property_readonly("final_state",
                              [](const RunSummary& s) { return StateVector(s.final_state); })
@@ -206,16 +207,19 @@ void bind_io(py::module_& m) {
       "steps in window_s = (t0, t1) (None: all), yaw error wrapped into [-pi, pi].");
 
   m.def("run_experiment", &run, py::arg("experiment"), py::arg("out_dir"),
-        py::arg("model") = nullptr,
-        "Runs an Experiment exactly as `dronetwin run` does, writing out_dir/log.csv and\n"
-        "out_dir/summary.json; returns the RunSummary. `model` (optional) replaces the model file\n"
-        "(sweeps load it once). The GIL is released during the run.");
+        py::arg("model") = nullptr, py::arg("overwrite") = false,
+        "Runs an Experiment exactly as `dronetwin run` does, writing out_dir/log.csv,\n"
+        "log.json and summary.json; returns the RunSummary. `model` (optional) replaces the model\n"
+        "file (sweeps load it once). An earlier run's files in out_dir are replaced only with\n"
+        "overwrite=True (ValueError otherwise); a second run into a folder being written fails.\n"
+        "The GIL is released during the run.");
   m.def(
       "run_experiment_file",
-      [](const std::string& path, const std::string& out_dir) {
-        return run(load_experiment(path), out_dir, nullptr);
+      [](const std::string& path, const std::string& out_dir, bool overwrite) {
+        return run(load_experiment(path), out_dir, nullptr, overwrite);
       },
-      py::arg("path"), py::arg("out_dir"), "load_experiment(path) then run_experiment.");
+      py::arg("path"), py::arg("out_dir"), py::arg("overwrite") = false,
+      "load_experiment(path) then run_experiment.");
 
   m.def(
       "read_log_table",

@@ -155,24 +155,26 @@ void bind_real_data(py::module_& m) {
 
   m.def(
       "import_crazypad",
-      [](const std::string& flight_csv, const std::string& stand_csv, const std::string& stem) {
+      [](const std::string& flight_csv, const std::string& stand_csv, const std::string& stem,
+         bool overwrite) {
         py::gil_scoped_release release;
         const ThrustStandFit stand = fit_thrust_stand(read_thrust_stand_csv(stand_csv));
         const CrazyPadImport imp = import_crazypad(read_crazypad_csv(flight_csv), stand.speed_map);
-        write_crazypad_import(imp, stem, stand_csv);
+        write_crazypad_import(imp, stem, stand_csv, overwrite);
         return stem + ".csv";
       },
       py::arg("flight_csv"), py::arg("stand_csv"), py::arg("out_stem"),
+      py::arg("overwrite") = false,
       "Converts a CrazyPAD flight (decoded CSV) to a dronetwin log OUT_STEM.csv + OUT_STEM.json\n"
       "(rotor speeds through the stand's speed map); returns the CSV path.");
   m.def(
       "import_ulog",
-      [](const std::string& ulg, const std::string& stem) {
+      [](const std::string& ulg, const std::string& stem, bool overwrite) {
         py::gil_scoped_release release;
-        write_ulog_import(import_ulog(read_ulog(ulg)), stem);
+        write_ulog_import(import_ulog(read_ulog(ulg)), stem, overwrite);
         return stem + ".csv";
       },
-      py::arg("ulog_path"), py::arg("out_stem"),
+      py::arg("ulog_path"), py::arg("out_stem"), py::arg("overwrite") = false,
       "Converts a PX4 ULog to a dronetwin log OUT_STEM.csv + OUT_STEM.json (z up, rpm -> rad/s).");
 }
 

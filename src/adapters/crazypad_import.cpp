@@ -10,6 +10,7 @@
 #include "dronetwin/logging/csv_log.hpp"
 #include "dronetwin/logging/json_writer.hpp"
 #include "dronetwin/logging/log_metadata.hpp"
+#include "dronetwin/logging/output_folder.hpp"
 #include "dronetwin/logging/text_file.hpp"
 #include "dronetwin/math/quaternion.hpp"
 
@@ -107,7 +108,7 @@ CrazyPadImport import_crazypad(const CrazyPadFlight& f, const SpeedMap& speed_ma
 }
 
 void write_crazypad_import(const CrazyPadImport& imp, const std::string& stem,
-                           const std::string& stand_source) {
+                           const std::string& stand_source, bool overwrite) {
   const std::filesystem::path csv = stem + ".csv", json = stem + ".json";
   const std::vector<LogColumn> columns = crazypad_log_columns();
   // The import's columns are crazypad_import_columns() unless a caller edited them.
@@ -115,9 +116,11 @@ void write_crazypad_import(const CrazyPadImport& imp, const std::string& stem,
   for (const LogColumn& c : columns) names.push_back(c.name);
   require(names == imp.columns, json.string(),
           ": the import's columns are not crazypad_import_columns(); cannot describe them");
-  if (csv.has_parent_path()) std::filesystem::create_directories(csv.parent_path());
+  OutputFolder out(csv.has_parent_path() ? csv.parent_path() : std::filesystem::path("."),
+                   {csv.filename().string(), json.filename().string()}, {imp.source, stand_source},
+                   overwrite, "import");
   {
-    CsvLogWriter log(csv.string(), imp.columns);
+    CsvLogWriter log(out.partial(csv.filename().string()).string(), imp.columns);
     for (std::size_t r = 0; r < imp.rows(); ++r) {
       log.write_row(imp.values.data() + r * imp.columns.size(), imp.columns.size());
     }
@@ -145,7 +148,8 @@ void write_crazypad_import(const CrazyPadImport& imp, const std::string& stem,
       .integer("num_rotors", 4)
       .raw("columns", json::json_columns(columns))
       .raw("not_logged", R"(["wx", "wy", "wz", "pitch", "rotor speeds"])");
-  write_text_file(json, j.done() + "\n");
+  write_text_file(out.partial(json.filename().string()), j.done() + "\n");
+  out.commit();
 }
 
 }  // namespace dronetwin

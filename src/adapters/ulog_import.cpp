@@ -12,6 +12,7 @@
 #include "dronetwin/logging/csv_log.hpp"
 #include "dronetwin/logging/json_writer.hpp"
 #include "dronetwin/logging/log_metadata.hpp"
+#include "dronetwin/logging/output_folder.hpp"
 #include "dronetwin/logging/text_file.hpp"
 
 namespace dronetwin {
@@ -130,20 +131,22 @@ ULogImport import_ulog(const ULog& log) {
   return imp;
 }
 
-void write_ulog_import(const ULogImport& imp, const std::string& stem) {
+void write_ulog_import(const ULogImport& imp, const std::string& stem, bool overwrite) {
   const std::filesystem::path csv = stem + ".csv", json = stem + ".json";
   const std::vector<LogColumn> columns = ulog_log_columns(imp.num_rotors);
   std::vector<std::string> names;
   for (const LogColumn& c : columns) names.push_back(c.name);
   require(names == imp.columns, json.string(),
           ": the import's columns are not those of import_ulog(); cannot describe them");
-  if (csv.has_parent_path()) std::filesystem::create_directories(csv.parent_path());
+  OutputFolder out(csv.has_parent_path() ? csv.parent_path() : std::filesystem::path("."),
+                   {csv.filename().string(), json.filename().string()}, {imp.source}, overwrite,
+                   "import");
   {
-    CsvLogWriter out(csv.string(), imp.columns);
+    CsvLogWriter log(out.partial(csv.filename().string()).string(), imp.columns);
     for (std::size_t r = 0; r < imp.rows(); ++r) {
-      out.write_row(imp.values.data() + r * imp.columns.size(), imp.columns.size());
+      log.write_row(imp.values.data() + r * imp.columns.size(), imp.columns.size());
     }
-    out.close();
+    log.close();
   }
   json::JsonObject j(0);
   j.str("format", kImportedLogFormat)
@@ -158,7 +161,8 @@ void write_ulog_import(const ULogImport& imp, const std::string& stem) {
            "PX4 NED world / FRD body turned 180 deg about x: (x, y, z) -> (x, -y, -z), q -> (qw, "
            "qx, -qy, -qz)")
       .raw("columns", json::json_columns(columns));
-  write_text_file(json, j.done() + "\n");
+  write_text_file(out.partial(json.filename().string()), j.done() + "\n");
+  out.commit();
 }
 
 }  // namespace dronetwin

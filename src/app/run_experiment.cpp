@@ -27,6 +27,7 @@
 #include "dronetwin/logging/csv_log.hpp"
 #include "dronetwin/logging/json_writer.hpp"
 #include "dronetwin/logging/log_metadata.hpp"
+#include "dronetwin/logging/output_folder.hpp"
 #include "dronetwin/logging/text_file.hpp"
 #include "dronetwin/math/quaternion.hpp"
 
@@ -251,6 +252,10 @@ std::string summary_to_json(const RunSummary& s) {
       j.raw("diagnostics", diag.done());
     }
   }
+  std::string warnings = "[";
+  for (std::size_t i = 0; i < s.warnings.size(); ++i)
+    warnings += (i ? ", " : "") + json::json_string(s.warnings[i]);
+  j.raw("warnings", warnings + "]");
   j.integer("log_rows", s.log_rows)
       .str("log_path", s.log_path)
       .str("metadata_path", s.metadata_path)
@@ -260,6 +265,21 @@ std::string summary_to_json(const RunSummary& s) {
 }
 
 namespace {
+
+/// True when the experiment flies or starts at the model's hover rotor speeds.
+bool uses_hover_speeds(const Experiment& e) {
+  using Kind = RotorSpeedSetting::Kind;
+  if (e.initial_state.rotor_speeds.kind == Kind::kHover || e.initial_state.on_reference)
+    return true;
+  if (std::holds_alternative<HoverInput>(e.input)) return true;
+  if (const auto* c = std::get_if<ConstantRotorSpeedsInput>(&e.input))
+    return c->rotor_speeds.kind == Kind::kHover;
+  if (const auto* p = std::get_if<PiecewiseRotorSpeedsInput>(&e.input)) {
+    for (const RotorSpeedSegment& s : p->segments)
+      if (s.rotor_speeds.kind == Kind::kHover) return true;
+  }
+  return false;
+}
 
 /// The sidecar of a run (log_metadata.hpp), everything but the columns.
 LogMetadata run_metadata(const Experiment& e, const VehicleModel& model,
@@ -305,31 +325,31 @@ std::optional<std::string> hash_if_same_model(const std::string& path, const Veh
 }
 
 RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
-               const std::string& out_dir, std::optional<std::string> model_hash);
+               const std::string& out_dir, bool overwrite, std::optional<std::string> model_hash);
 
 }  // namespace
 
-RunSummary run_experiment(const Experiment& e, const std::string& out_dir) {
+RunSummary run_experiment(const Experiment& e, const std::string& out_dir, bool overwrite) {
   validate(e);
   // Read once: the model flown is exactly the text hashed.
   const std::string text = read_text_file(e.model_path, "model file");
   auto model =
       std::make_shared<const VehicleModel>(VehicleModel(parse_vehicle_spec(text, e.model_path)));
-  return run(e, std::move(model), out_dir, content_hash(text));
+  return run(e, std::move(model), out_dir, overwrite, content_hash(text));
 }
 
 RunSummary run_experiment(const Experiment& e, std::shared_ptr<const VehicleModel> model,
-                          const std::string& out_dir) {
+                          const std::string& out_dir, bool overwrite) {
   require(model != nullptr, e.source, ": run_experiment: the model is null");
   validate(e);
   std::optional<std::string> hash = hash_if_same_model(e.model_path, *model);
-  return run(e, std::move(model), out_dir, std::move(hash));
+  return run(e, std::move(model), out_dir, overwrite, std::move(hash));
 }
 
 namespace {
 
 RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
-               const std::string& out_dir, std::optional<std::string> model_hash) {
+               const std::string& out_dir, bool overwrite, std::optional<std::string> model_hash) {
   check_against_model(e, *model);
   Simulator sim(model, e.sim_config());
   try {
@@ -363,13 +383,14 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   ClosedLoop loop(sim, *controller, *reference, control_rate_hz);
   loop.set_real_time(controller_input != nullptr && controller_input->real_time);
 
-  // Only now, with every input checked, touch the file system.
-  std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  require(!ec && fs::is_directory(out_dir), out_dir, ": cannot create the output directory (",
-          ec ? ec.message() : std::string("not a directory"), ")");
-  const fs::path log_path = fs::path(out_dir) / "log.csv";
-  const fs::path summary_path = fs::path(out_dir) / "summary.json";
+  // Only now, with every input checked, touch the file system: lock the folder, refuse to replace
+  // an earlier run (unless asked) or an input, write to temporaries and move them into place at
+  // the end (logging/output_folder.hpp).
+  std::vector<std::string> inputs{e.source, e.model_path};
+  if (controller_input != nullptr) inputs.push_back(controller_input->controller_path);
+  OutputFolder out(out_dir, {"log.csv", "log.json", "summary.json"}, inputs, overwrite, "run");
+  const fs::path log_path = out.final_path("log.csv");
+  const fs::path summary_path = out.final_path("summary.json");
   const fs::path metadata_path = sidecar_path(log_path.string());
 
   RunSummary s;
@@ -393,11 +414,16 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
                          controller_input != nullptr, diagnostic_names};
   LogMetadata metadata = run_metadata(e, *model, std::move(model_hash));
   metadata.columns = log_columns(layout);
-  CsvLogWriter log(log_path.string(), metadata.column_names());
-  // Before the run: the sidecar depends on the settings only, and is there even if the process
-  // is stopped mid-run.
-  write_log_metadata(metadata, metadata_path.string());
+  CsvLogWriter log(out.partial("log.csv").string(), metadata.column_names());
+  write_log_metadata(metadata, out.partial("log.json").string());
 
+  if (uses_hover_speeds(e) && !model->can_hover(e.gravity_magnitude())) {
+    s.warnings.push_back(detail::concat(
+        model->name(), " cannot hover at g = ", e.gravity_magnitude(),
+        " m/s^2 within its rotor speed limits: the experiment's hover rotor speeds are clamped to "
+        "the limits and do not hold it still (dronetwin info ",
+        e.model_path, ")"));
+  }
   RunObserver observer(e, controller_input, *controller, sim, log, s);
   const auto start = std::chrono::steady_clock::now();
   const StepResult result = loop.run(e.duration_s, &observer);
@@ -420,7 +446,8 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   s.log_rows = static_cast<std::int64_t>(log.rows_written());
   s.wall_clock_s = wall_s;
   s.real_time_factor = wall_s > 0.0 ? s.duration_s / wall_s : 0.0;
-  write_text_file(summary_path, summary_to_json(s));
+  write_text_file(out.partial("summary.json"), summary_to_json(s));
+  out.commit();
   return s;
 }
 

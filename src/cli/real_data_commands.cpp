@@ -176,10 +176,12 @@ void register_real_data_commands(CLI::App& app, RealDataCommands& c) {
   c.import_crazypad->add_option("--stand", c.stand, "Thrust-stand CSV for the speed map")
       ->required();
   c.import_crazypad->add_option("--out,-o", c.out_dir, "Output directory")->required();
+  c.import_crazypad->add_flag("--force", c.force, "Replace an earlier import's files");
   c.import_ulog = c.import_cmd->add_subcommand(
       "ulog", "PX4 ULog -> DIR/<name>.csv + <name>.json (resampled at vehicle_attitude)");
   c.import_ulog->add_option("file", c.input, "ULog file (.ulg)")->required();
   c.import_ulog->add_option("--out,-o", c.out_dir, "Output directory")->required();
+  c.import_ulog->add_flag("--force", c.force, "Replace an earlier import's files");
 
   c.identify_cmd = app.add_subcommand("identify", "Fit parameters to real data");
   c.identify_cmd->require_subcommand(1);
@@ -212,14 +214,14 @@ int run_real_data_command(const RealDataCommands& c) {
   if (c.import_crazypad->parsed()) {
     const ThrustStandFit stand = fit_thrust_stand(read_thrust_stand_csv(c.stand));
     const CrazyPadImport imp = import_crazypad(read_crazypad_csv(c.input), stand.speed_map);
-    write_crazypad_import(imp, stem, c.stand);
+    write_crazypad_import(imp, stem, c.stand, c.force);
     std::cout << "wrote " << stem << ".csv (" << imp.rows() << " rows) and " << stem
               << ".json; speed map w = " << stand.speed_map.a_rad_s_per_V << " u + "
               << stand.speed_map.b_rad_s << "\n";
     return 0;
   }
   const ULogImport imp = import_ulog(read_ulog(c.input));
-  write_ulog_import(imp, stem);
+  write_ulog_import(imp, stem, c.force);
   std::cout << "wrote " << stem << ".csv (" << imp.rows() << " rows) and " << stem << ".json\n";
   return 0;
 }

@@ -24,6 +24,7 @@ struct RealDataCommands {
   double prior_mass_kg = 0.0;
   double train_fraction = 0.7;
   bool no_drag = false;
+  bool force = false;  ///< import: replace an earlier import's files
 };
 
 /// Adds `import` and `identify` with their subcommands to `app`.

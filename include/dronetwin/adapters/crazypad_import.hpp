@@ -52,9 +52,10 @@ std::vector<std::string> crazypad_import_columns();
 CrazyPadImport import_crazypad(const CrazyPadFlight& flight, const SpeedMap& speed_map,
                                double gravity_m_s2 = 9.81);
 
-/// Writes `stem`.csv and `stem`.json (creates the parent directory). `stand_source` names the
-/// thrust-stand file the speed map came from (for the sidecar).
+/// Writes `stem`.csv and `stem`.json (creates the parent directory) safely, like
+/// write_ulog_import(). `stand_source` names the thrust-stand file the speed map came from (for
+/// the sidecar).
 void write_crazypad_import(const CrazyPadImport& imp, const std::string& stem,
-                           const std::string& stand_source);
+                           const std::string& stand_source, bool overwrite = false);
 
 }  // namespace dronetwin

@@ -37,7 +37,9 @@ struct ULogImport {
 
 ULogImport import_ulog(const ULog& log);
 
-/// Writes `stem`.csv and `stem`.json.
-void write_ulog_import(const ULogImport& imp, const std::string& stem);
+/// Writes `stem`.csv and `stem`.json safely (logging/output_folder.hpp: the folder is locked, the
+/// files are written under temporary names and moved into place; existing files are replaced only
+/// with `overwrite`, the input never).
+void write_ulog_import(const ULogImport& imp, const std::string& stem, bool overwrite = false);
 
 }  // namespace dronetwin

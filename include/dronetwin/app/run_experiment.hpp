@@ -119,18 +119,27 @@ struct RunSummary {
   /// The log's JSON sidecar (io/log_metadata.hpp), next to log_path.
   std::string metadata_path;
 
+  /// What the run could do but a user should know (the model cannot hover at the experiment's
+  /// gravity, so its "hover" rotor speeds are clamped to the limits, ...). Also in summary.json.
+  std::vector<std::string> warnings;
+
   bool ok() const { return status == StepStatus::kOk; }
 };
 
 /// Runs `experiment` (checks it against its model first) and writes out_dir/log.csv,
-/// out_dir/log.json and out_dir/summary.json, creating out_dir if needed.
-RunSummary run_experiment(const Experiment& experiment, const std::string& out_dir);
+/// out_dir/log.json and out_dir/summary.json, creating out_dir if needed. The folder is locked
+/// for the run (a second run into it fails at once), the files are written under temporary
+/// names and moved into place when the run ends (logging/output_folder.hpp), and an earlier
+/// run's files are replaced only with `overwrite` (the CLI's --force); an output that is one of
+/// the inputs is always refused.
+RunSummary run_experiment(const Experiment& experiment, const std::string& out_dir,
+                          bool overwrite = false);
 
 /// Same with an already loaded model (sweeps over seeds or settings load it once);
 /// experiment.model_path is only reported. The sidecar's model_hash is that file's hash if the
 /// file describes the same model (same numbers and name), else null.
 RunSummary run_experiment(const Experiment& experiment, std::shared_ptr<const VehicleModel> model,
-                          const std::string& out_dir);
+                          const std::string& out_dir, bool overwrite = false);
 
 /// The JSON text of summary.json.
 std::string summary_to_json(const RunSummary& summary);
