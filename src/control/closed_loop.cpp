@@ -15,6 +15,11 @@ ClosedLoop::ClosedLoop(Simulator& sim, ControllerBase& controller, const Referen
           "control_rate_hz: expected > 0, got ", control_rate_hz);
   const double physics_hz = 1.0 / sim.config().dt_s;
   const double ratio = physics_hz / control_rate_hz;
+  // Checked before the conversion: a tiny rate gives a ratio no int holds.
+  require(std::isfinite(ratio) && ratio >= 0.5 && ratio < 2147483647.0,
+          "control_rate_hz: ", control_rate_hz, " Hz gives ", ratio,
+          " physics steps per control; expected 1 to ", 2147483646, " (at most the physics rate ",
+          physics_hz, " Hz)");
   steps_per_control_ = static_cast<int>(std::lround(ratio));
   require(steps_per_control_ >= 1 && std::abs(ratio - steps_per_control_) < 1e-9 * ratio,
           "control_rate_hz: ", control_rate_hz, " Hz must divide the physics rate (", physics_hz,
@@ -89,6 +94,10 @@ bool ClosedLoop::guarded_update(StepResult& result) {
 
 StepResult ClosedLoop::run(double duration_s, LoopObserver* observer) {
   const std::int64_t n = steps_for(duration_s, sim_.config().dt_s);
+  // One thread flies the loop: another one resetting the simulator or calling the controller
+  // meanwhile gets an error instead of corrupting the flight.
+  const auto sim_in_use = sim_.exclusive_use("ClosedLoop::run (its simulator)");
+  const auto controller_in_use = controller_.exclusive_use("ClosedLoop::run (its controller)");
   StepResult total;
   failure_message_.clear();
   if (guarded_update(total)) {

@@ -30,6 +30,7 @@ void ControllerBase::check_input(const ControlInput& in) const {
 }
 
 GeneralizedForce ControllerBase::calculate_u(const ControlInput& in) {
+  const SingleThreadGuard::Hold hold(guard_, "controller calculate_u");
   check_input(in);
   const GeneralizedForce u = do_calculate_u(in);
   if (!u.allFinite()) {
@@ -42,6 +43,7 @@ GeneralizedForce ControllerBase::calculate_u(const ControlInput& in) {
 }
 
 RotorVector ControllerBase::calculate_actuator_cmd(const ControlInput& in) {
+  const SingleThreadGuard::Hold hold(guard_, "controller calculate_actuator_cmd");
   check_input(in);
   const RotorVector w = do_calculate_actuator_cmd(in);
   if (w.size() != model_->num_rotors() || !w.allFinite()) {

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "dronetwin/control/reference.hpp"
+#include "dronetwin/core/single_thread.hpp"
 #include "dronetwin/core/types.hpp"
 #include "dronetwin/model/allocation.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
@@ -89,6 +90,14 @@ class ControllerBase {
   /// The most recent allocation (kGeneralizedForce controllers), for logs and saturation stats.
   const AllocationResult& last_allocation() const { return last_allocation_; }
 
+  /// Marks the controller in use by this thread for the returned object's lifetime (ClosedLoop::run
+  /// takes it once). A controller has memory (integrators, plans): two threads calling it at once
+  /// get a SimulationError instead of a mixed state. calculate_u() and calculate_actuator_cmd()
+  /// take it too.
+  [[nodiscard]] SingleThreadGuard::Hold exclusive_use(const char* what) const {
+    return SingleThreadGuard::Hold(guard_, what);
+  }
+
  protected:
   virtual GeneralizedForce do_calculate_u(const ControlInput& in);
   virtual RotorVector do_calculate_actuator_cmd(const ControlInput& in);
@@ -99,6 +108,7 @@ class ControllerBase {
   std::shared_ptr<const VehicleModel> model_;
   AllocationMethod allocation_;
   AllocationResult last_allocation_;
+  SingleThreadGuard guard_;
 };
 
 }  // namespace dronetwin
