@@ -23,6 +23,12 @@ def read_log(path: str) -> dict[str, np.ndarray]:
     """Columns of a dronetwin log.csv as float arrays keyed by header name."""
     with open(path, encoding="utf-8") as f:
         header = f.readline().strip().split(",")
+        has_rows = any(line.strip() for line in f)
+    if header == [""]:
+        raise ValueError(f"{path}: empty file (no header)")
+    if not has_rows:
+        raise ValueError(f"{path}: the log has a header but no rows: nothing to plot "
+                         "(did the run stop before its first step?)")
     data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     if data.shape[1] != len(header):
         raise ValueError(f"{path}: header has {len(header)} columns, rows have {data.shape[1]}")

@@ -24,6 +24,18 @@ namespace {
 
 // ---- Python-subclassable Reference ------------------------------------------------------------
 /// What C++ holds when it copies a Python reference (ClosedLoop hands an NMPC a copy for its
+/// The result of a Python override converted to T, or a TypeError that names the method and
+/// says what it returned and what was expected (pybind11's own message names neither).
+template <class T>
+T result_of(const py::object& r, const char* method, const char* expected) {
+  try {
+    return r.cast<T>();
+  } catch (const py::cast_error&) {
+    throw py::type_error(std::string(method) + "() returned " + describe_object(r) + "; expected " +
+                         expected);
+  }
+}
+
 /// preview): a counted handle to the same Python object, called with the GIL.
 class PythonReferenceHandle final : public Reference {
  public:
@@ -34,11 +46,11 @@ class PythonReferenceHandle final : public Reference {
   }
   ReferencePoint at(double t_s) const override {
     py::gil_scoped_acquire gil;
-    return obj_.attr("at")(t_s).cast<ReferencePoint>();
+    return result_of<ReferencePoint>(obj_.attr("at")(t_s), "Reference.at", "a ReferencePoint");
   }
   std::string describe() const override {
     py::gil_scoped_acquire gil;
-    return obj_.attr("describe")().cast<std::string>();
+    return result_of<std::string>(obj_.attr("describe")(), "Reference.describe", "a str");
   }
   std::unique_ptr<Reference> clone() const override {
     py::gil_scoped_acquire gil;
@@ -52,12 +64,16 @@ class PythonReferenceHandle final : public Reference {
 class PyReference : public Reference {
  public:
   ReferencePoint at(double t_s) const override {
-    PYBIND11_OVERRIDE_PURE(ReferencePoint, Reference, at, t_s);
+    py::gil_scoped_acquire gil;
+    if (py::function f = py::get_override(static_cast<const Reference*>(this), "at")) {
+      return result_of<ReferencePoint>(f(t_s), "Reference.at", "a ReferencePoint");
+    }
+    throw py::type_error("Reference subclass does not implement at(self, t_s)");
   }
   std::string describe() const override {
     py::gil_scoped_acquire gil;
     if (py::function f = py::get_override(static_cast<const Reference*>(this), "describe")) {
-      return f().cast<std::string>();
+      return result_of<std::string>(f(), "Reference.describe", "a str");
     }
     return "python reference";
   }
@@ -75,7 +91,7 @@ class PyController : public ControllerBase {
   std::string_view name() const override {
     py::gil_scoped_acquire gil;
     if (py::function f = py::get_override(static_cast<const ControllerBase*>(this), "name")) {
-      name_ = f().cast<std::string>();
+      name_ = result_of<std::string>(f(), "ControllerBase.name", "a str");
     } else {
       name_ = py::str(py::cast(this).get_type().attr("__name__")).cast<std::string>();
     }
@@ -84,7 +100,7 @@ class PyController : public ControllerBase {
   ControlLevel level() const override {
     py::gil_scoped_acquire gil;
     if (py::function f = py::get_override(static_cast<const ControllerBase*>(this), "level")) {
-      return f().cast<ControlLevel>();
+      return result_of<ControlLevel>(f(), "ControllerBase.level", "a ControlLevel");
     }
     // A Python class that implements only calculate_actuator_cmd commands the rotors itself.
     const bool has_u = static_cast<bool>(
@@ -100,7 +116,13 @@ class PyController : public ControllerBase {
   }
   void reset() override { PYBIND11_OVERRIDE(void, ControllerBase, reset, ); }
   std::vector<std::string> diagnostic_names() const override {
-    PYBIND11_OVERRIDE(std::vector<std::string>, ControllerBase, diagnostic_names, );
+    py::gil_scoped_acquire gil;
+    if (py::function f =
+            py::get_override(static_cast<const ControllerBase*>(this), "diagnostic_names")) {
+      return result_of<std::vector<std::string>>(f(), "ControllerBase.diagnostic_names",
+                                                 "a list of str");
+    }
+    return ControllerBase::diagnostic_names();
   }
   void diagnostics(double* out) const override {
     py::gil_scoped_acquire gil;
@@ -139,10 +161,27 @@ class PyController : public ControllerBase {
   mutable std::string name_;
 };
 
+/// Checks for Ctrl-C every few thousand instants of a run flown with the GIL released: a pending
+/// KeyboardInterrupt stops the run (the exception propagates out of ClosedLoop::run).
+struct SignalCheck {
+  std::int64_t calls = 0;
+  void tick() {
+    if (++calls % 4096 != 0) return;
+    py::gil_scoped_acquire gil;
+    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+  }
+};
+
+/// ClosedLoop.run(): only the signal checks.
+struct InterruptibleRun final : LoopObserver {
+  SignalCheck signals;
+  void observe(const ClosedLoop&) override { signals.tick(); }
+};
+
 /// Records a closed-loop run into preallocated numpy arrays (one row at t = 0 and after every
 /// `every`-th step) through ClosedLoop::run(), with the GIL released while stepping. A failed run
 /// keeps its rows (and the last good state) and says why in status and failure_message.
-py::dict record(ClosedLoop& loop, double duration_s, int every) {
+py::dict record(ClosedLoop& loop, double duration_s, std::int64_t every) {
   const Simulator& sim = loop.simulator();
   if (!(duration_s >= 0.0) || !std::isfinite(duration_s))
     throw py::value_error("record: duration_s must be finite and >= 0, got " +
@@ -166,8 +205,10 @@ py::dict record(ClosedLoop& loop, double duration_s, int every) {
     double *pt, *px, *pxm, *pw, *pwr, *pref, *pu, *psat, *pdiag;
     py::ssize_t nr, nd, filled = 0;
     std::int64_t start_step, every, logged_step = -1;
+    SignalCheck signals;
     void observe(const ClosedLoop& l) override {
       if ((l.simulator().step_count() - start_step) % every == 0) row(l);
+      signals.tick();
     }
     void finish(const ClosedLoop& l, const StepResult& r) override {
       if (!r.ok() && logged_step != l.simulator().step_count()) row(l);
@@ -566,7 +607,11 @@ void bind_control(py::module_& m) {
            "Runs the controller if this step is a control instant (idempotent). True if it ran.")
       .def("step", &ClosedLoop::step, "update(), one physics step, real-time pacing if enabled.")
       .def(
-          "run", [](ClosedLoop& l, double duration_s) { return l.run(duration_s); },
+          "run",
+          [](ClosedLoop& l, double duration_s) {
+            InterruptibleRun signals;
+            return l.run(duration_s, &signals);
+          },
           py::arg("duration_s"), py::call_guard<py::gil_scoped_release>(),
           "Steps for duration_s of simulated time (GIL released; Python controllers retake it).\n"
           "A failing controller ends the run with status CONTROLLER_FAILED (failure_message).")
@@ -574,7 +619,7 @@ void bind_control(py::module_& m) {
                              "Why the last run() or record() ended with CONTROLLER_FAILED.")
       .def(
           "record",
-          [](ClosedLoop& loop, double duration_s, int every) {
+          [](ClosedLoop& loop, double duration_s, std::int64_t every) {
             return record(loop, duration_s, every);
           },
           py::arg("duration_s"), py::arg("every_n_steps") = 1,

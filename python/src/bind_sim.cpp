@@ -35,6 +35,31 @@ std::shared_ptr<const VehicleModel> const_model(const std::shared_ptr<VehicleMod
   return m;
 }
 
+/// Simulator.step(n): chunks of steps with the GIL released, Ctrl-C checked between them (a
+/// KeyboardInterrupt stops the loop after the current chunk; the simulator keeps every step taken).
+StepResult step_interruptible(Simulator& s, std::int64_t n) {
+  if (n < 0) throw py::value_error("Simulator.step(n): expected n >= 0, got " + std::to_string(n));
+  const auto in_use = s.exclusive_use("Simulator.step");
+  constexpr std::int64_t kChunk = 16384;  // ~4 ms of stepping between signal checks
+  StepResult total;
+  for (std::int64_t done = 0; done < n;) {
+    const std::int64_t chunk = std::min(kChunk, n - done);
+    StepResult r;
+    {
+      py::gil_scoped_release release;
+      r = s.step(chunk);
+    }
+    total.steps_taken += r.steps_taken;
+    done += chunk;
+    if (!r.ok()) {
+      total.status = r.status;
+      break;
+    }
+    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+  }
+  return total;
+}
+
 }  // namespace
 
 void bind_sim(py::module_& m) {
@@ -47,6 +72,8 @@ void bind_sim(py::module_& m) {
       .value("NON_FINITE", StepStatus::kNonFinite, "The integrated state had NaN or inf.")
       .value("DIVERGED", StepStatus::kDiverged,
              "Position, speed or rate beyond the divergence limits.")
+      .value("INVALID_STATE", StepStatus::kInvalidState,
+             "A state that cannot be integrated (a zero quaternion written into the view).")
       .value("CONTROLLER_FAILED", StepStatus::kControllerFailed,
              "The controller threw or returned non-finite output (ClosedLoop.failure_message).");
 
@@ -125,7 +152,9 @@ void bind_sim(py::module_& m) {
       .def(py::init<>())
       .def_readwrite("enabled", &GroundConfig::enabled)
       .def_readwrite("crash_speed_m_s", &GroundConfig::crash_speed_m_s)
-      .def_readwrite("crash_tilt_rad", &GroundConfig::crash_tilt_rad);
+      .def_readwrite("crash_tilt_rad", &GroundConfig::crash_tilt_rad)
+      .def_readwrite("friction_coefficient", &GroundConfig::friction_coefficient,
+                     "Coulomb friction of the landing gear (static = kinetic).");
 
   py::class_<DivergenceLimits>(m, "DivergenceLimits",
                                "A state beyond these bounds stops the run with status DIVERGED.")
@@ -170,6 +199,7 @@ void bind_sim(py::module_& m) {
 
   py::class_<ContactState>(m, "ContactState", "Ground contact bookkeeping.")
       .def_readonly("in_contact", &ContactState::in_contact)
+      .def_readonly("sliding", &ContactState::sliding)
       .def_readonly("crashed", &ContactState::crashed)
       .def_readonly("touchdowns", &ContactState::touchdowns)
       .def_readonly("last_touchdown_speed_m_s", &ContactState::last_touchdown_speed_m_s)
@@ -263,10 +293,16 @@ void bind_sim(py::module_& m) {
           py::arg("u"), py::arg("allocation") = AllocationMethod::kExact,
           "Generalized force [T, tau_x, tau_y, tau_z] (N, N m), allocated with `allocation`\n"
           "(EXACT: thrust-first with saturation handling; THESIS: Eq. 2.31).")
-      .def("step", py::overload_cast<>(&Simulator::step),
-           "One physics step. Returns a StepResult (status OK, NON_FINITE or DIVERGED).")
-      .def("step", py::overload_cast<std::int64_t>(&Simulator::step), py::arg("n"),
-           py::call_guard<py::gil_scoped_release>(),
+      .def(
+          "step",
+          [](Simulator& s) {
+            // The single step holds the simulator too: another Python thread in step(n) (GIL
+            // released) or reset() then gets a RuntimeError instead of a mixed state.
+            const auto in_use = s.exclusive_use("Simulator.step");
+            return s.step();
+          },
+          "One physics step. Returns a StepResult (status OK, NON_FINITE or DIVERGED).")
+      .def("step", &step_interruptible, py::arg("n"),
            "Up to n physics steps, stopping at the first failure; the GIL is released meanwhile.")
       .def_property_readonly("time_s", &Simulator::time_s)
       .def_property_readonly("step_count", &Simulator::step_count)

@@ -73,6 +73,7 @@ struct RunOptions {
   double duration_s = 0.0;
   bool quiet = false;
   bool real_time = false;
+  bool force = false;
   bool seed_given = false;
   bool duration_given = false;
 };
@@ -137,7 +138,8 @@ int run_command(const RunOptions& o) {
             input_type_name(e.input), "'");
     loop->real_time = true;
   }
-  const RunSummary s = run_experiment(e, o.out_dir);
+  const RunSummary s = run_experiment(e, o.out_dir, o.force);
+  for (const std::string& w : s.warnings) std::cerr << "warning: " << w << "\n";
   if (!o.quiet) print_summary(s);
   if (!s.ok()) {
     std::cerr << "error: run " << status_name(s.status) << ": " << s.failure_message
@@ -172,10 +174,25 @@ int info_command(const std::string& path) {
             << m.allocation_pseudo_inverse().format(matrix) << "\n";
   std::cout << "  wrench matrix rank " << m.wrench_rank() << "\n";
   const RotorVector thrusts = m.hover_thrusts_N(), speeds = m.hover_speeds_rad_s();
-  std::cout << "  hover (g = 9.81 m/s^2)\n";
+  std::cout << "  hover (g = 9.81 m/s^2)" << (m.can_hover() ? "" : ": NOT POSSIBLE") << "\n";
   for (int i = 0; i < m.num_rotors(); ++i) {
-    std::cout << "    [" << i << "] thrust " << std::setprecision(8) << thrusts[i] << " N, speed "
-              << speeds[i] << " rad/s (" << speeds[i] * 60.0 / (2.0 * kPi) << " rpm)\n";
+    const RotorParams& r = m.rotor(i);
+    const double t_min = r.thrust(r.min_speed_rad_s), t_max = r.thrust(r.max_speed_rad_s);
+    std::cout << "    [" << i << "] thrust " << std::setprecision(8) << thrusts[i] << " N";
+    if (thrusts[i] > t_max) {
+      std::cout << ": more than this rotor gives at its maximum speed (" << t_max << " N at "
+                << r.max_speed_rad_s << " rad/s)\n";
+    } else if (thrusts[i] < t_min) {
+      std::cout << ": less than this rotor gives at its minimum speed (" << t_min << " N at "
+                << r.min_speed_rad_s << " rad/s)\n";
+    } else {
+      std::cout << ", speed " << speeds[i] << " rad/s (" << speeds[i] * 60.0 / (2.0 * kPi)
+                << " rpm)\n";
+    }
+  }
+  if (!m.can_hover()) {
+    std::cerr << "warning: " << m.name()
+              << " cannot hover at g = 9.81 m/s^2 within its rotor speed limits\n";
   }
   return kExitOk;
 }
@@ -238,6 +255,8 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--real-time", run.real_time,
                     "Pace a closed-loop run at real time (overrides the experiment's real_time)");
   run_cmd->add_flag("--quiet,-q", run.quiet, "Print nothing on success");
+  run_cmd->add_flag("--force", run.force,
+                    "Replace the log and summary of an earlier run in the output directory");
 
   std::string model_path;
   CLI::App* info_cmd = app.add_subcommand(

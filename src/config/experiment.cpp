@@ -46,7 +46,7 @@ const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
 const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
 const Names kBlockKeys = {"a", "b"};
 const Names kDisturbanceKeys(kDisturbanceSwitchNames.begin(), kDisturbanceSwitchNames.end());
-const Names kGroundKeys = {"enabled", "crash_speed_m_s", "crash_tilt_rad"};
+const Names kGroundKeys = {"enabled", "crash_speed_m_s", "crash_tilt_rad", "friction_coefficient"};
 const Names kDivergenceKeys = {"max_position_m", "max_speed_m_s", "max_angular_speed_rad_s"};
 const Names kInitialStateKeys = {"position_m",  "velocity_m_s",           "quaternion_wxyz",
                                  "euler_rad",   "angular_velocity_rad_s", "rotor_speeds_rad_s",
@@ -151,6 +151,12 @@ GroundConfig read_ground(const Reader& rd, const YAML::Node& node, const std::st
     g.crash_speed_m_s = rd.positive(m.get("crash_speed_m_s"), m.path("crash_speed_m_s"));
   if (m.has("crash_tilt_rad"))
     g.crash_tilt_rad = rd.positive(m.get("crash_tilt_rad"), m.path("crash_tilt_rad"));
+  if (m.has("friction_coefficient")) {
+    const YAML::Node f = m.get("friction_coefficient");
+    g.friction_coefficient = rd.number(f, m.path("friction_coefficient"));
+    if (g.friction_coefficient < 0.0)
+      rd.fail(f, m.path("friction_coefficient"), "expected a number >= 0, got " + f.Scalar());
+  }
   return g;
 }
 
@@ -219,10 +225,9 @@ LogSettings read_log(const Reader& rd, const YAML::Node& node, const std::string
   LogSettings s;
   if (m.has("every_n_steps")) {
     const YAML::Node n = m.get("every_n_steps");
-    const long long v = rd.integer<long long>(n, m.path("every_n_steps"), "an integer >= 1");
-    if (v < 1 || v > std::numeric_limits<int>::max())
-      rd.fail(n, m.path("every_n_steps"), "expected an integer >= 1, got " + n.Scalar());
-    s.every_n_steps = static_cast<int>(v);
+    const auto v = rd.integer<std::int64_t>(n, m.path("every_n_steps"), "an integer >= 1");
+    if (v < 1) rd.fail(n, m.path("every_n_steps"), "expected an integer >= 1, got " + n.Scalar());
+    s.every_n_steps = v;
   }
   if (m.has("wrench_breakdown"))
     s.wrench_breakdown = rd.boolean(m.get("wrench_breakdown"), m.path("wrench_breakdown"));
@@ -486,6 +491,13 @@ void check_experiment(const Experiment& e, const std::string& source) {
   const auto fail = [&](const std::string& field, const std::string& message) {
     throw InvalidArgument(source + ": " + field + ": " + message);
   };
+  // The name goes into summaries, sidecars and file names of sweeps: one printable line.
+  if (e.name.empty()) fail("name", "expected a non-empty name");
+  for (const char c : e.name) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+      fail("name", "expected printable characters on one line, got control character " +
+                       std::to_string(static_cast<int>(static_cast<unsigned char>(c))));
+  }
   if (!(std::isfinite(e.duration_s) && e.duration_s > 0.0))
     fail("duration_s", "expected a number > 0, got " + format_number(e.duration_s));
   if (!(std::isfinite(e.sim.dt_s) && e.sim.dt_s > 0.0 && e.sim.dt_s <= 0.1))
@@ -510,19 +522,45 @@ void check_experiment(const Experiment& e, const std::string& source) {
                " and 1 - s (a + " + format_number(n) + " b) = " + format_number(e2) +
                " must lie in (-1, 1) (s = " + format_number(s) + ", from the drift setting)");
   }
+  if (const auto* p = std::get_if<PiecewiseRotorSpeedsInput>(&e.input)) {
+    // Segments closer than a physics step would land on one step, and all but the last of them
+    // would never fly: say so instead of dropping one.
+    for (std::size_t i = 1; i < p->segments.size(); ++i) {
+      const std::int64_t k = segment_start_step(p->segments[i].start_s, e.sim.dt_s);
+      if (k == segment_start_step(p->segments[i - 1].start_s, e.sim.dt_s)) {
+        fail("input.segments[" + std::to_string(i) + "].start_s",
+             format_number(p->segments[i].start_s) + " s takes effect at the same physics step (" +
+                 std::to_string(k) + ", t = " + format_number(static_cast<double>(k) * e.sim.dt_s) +
+                 " s) as input.segments[" + std::to_string(i - 1) + "] (" +
+                 format_number(p->segments[i - 1].start_s) + " s) with physics_dt_s " +
+                 format_number(e.sim.dt_s) +
+                 ": the earlier segment would never fly; starts must be at least one step apart");
+      }
+    }
+  }
   if (const auto* loop = std::get_if<ControllerLoopInput>(&e.input)) {
     // As ClosedLoop checks it (thesis Eq. 3.11: f_physics / f_control steps per control).
     const double physics_hz = 1.0 / e.sim.dt_s;
     const double ratio = physics_hz / loop->control_rate_hz;
     const double n = std::round(ratio);
     if (!(std::isfinite(loop->control_rate_hz) && loop->control_rate_hz > 0.0 && n >= 1.0 &&
-          std::abs(ratio - n) < 1e-9 * ratio))
+          n <= 2147483647.0 && std::abs(ratio - n) < 1e-9 * ratio))
       fail("input.control_rate_hz",
            "expected a rate that divides the physics rate " + format_number(physics_hz) +
                " Hz (1 / physics_dt_s) into a whole number of steps (thesis Eq. 3.11), got " +
                format_number(loop->control_rate_hz) + " Hz (" + format_number(ratio) +
                " steps per control)");
     if (loop->reference == nullptr) fail("input.reference", "missing (null reference)");
+    // A reference built from finite numbers can still evaluate to inf (a period of 1e-320 s):
+    // the controller would refuse it at t = 0; name the field here instead.
+    const ReferencePoint r0 = loop->reference->at(0.0);
+    if (!(r0.position_m.allFinite() && r0.velocity_m_s.allFinite() &&
+          r0.acceleration_m_s2.allFinite() && std::isfinite(r0.yaw_rad) &&
+          std::isfinite(r0.yaw_rate_rad_s))) {
+      fail("input.reference",
+           "is not finite at t = 0 s (" + loop->reference->describe() +
+               "): check its numbers (a period or duration too small to divide by?)");
+    }
   }
   // The remaining run settings with the simulator's own check.
   (void)e.sim_config();

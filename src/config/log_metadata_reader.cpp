@@ -144,8 +144,8 @@ LogMetadata parse_log_metadata(const std::string& json_text, const std::string& 
   m.integrator = static_cast<Integrator>(
       rd.choice(field("integrator"), path("integrator"), kIntegrators, "integrator"));
   m.motor_dynamics = rd.boolean(field("motor_dynamics"), path("motor_dynamics"));
-  m.log_every_n_steps =
-      rd.integer<int>(field("log_every_n_steps"), path("log_every_n_steps"), "an integer >= 1");
+  m.log_every_n_steps = rd.integer<std::int64_t>(field("log_every_n_steps"),
+                                                 path("log_every_n_steps"), "an integer >= 1");
   if (m.log_every_n_steps < 1) {
     rd.fail(field("log_every_n_steps"), path("log_every_n_steps"),
             "expected an integer >= 1, got " + std::to_string(m.log_every_n_steps));

@@ -189,6 +189,16 @@ RotorVector VehicleModel::hover_speeds_rad_s(double gravity_m_s2) const {
   return w;
 }
 
+bool VehicleModel::can_hover(double gravity_m_s2) const {
+  const RotorVector thrusts = hover_thrusts_N(gravity_m_s2);
+  for (int i = 0; i < num_rotors(); ++i) {
+    const RotorParams& r = rotor(i);
+    if (!(thrusts[i] >= r.thrust(r.min_speed_rad_s) && thrusts[i] <= r.thrust(r.max_speed_rad_s)))
+      return false;
+  }
+  return true;
+}
+
 RotorVector VehicleModel::thrusts_for(const GeneralizedForce& u) const {
   return allocation_pinv_ * u;
 }

@@ -46,6 +46,9 @@ void validate(const SimConfig& c) {
           c.ground.crash_speed_m_s);
   require(std::isfinite(c.ground.crash_tilt_rad) && c.ground.crash_tilt_rad > 0.0,
           "simulation config: ground.crash_tilt_rad: expected > 0, got ", c.ground.crash_tilt_rad);
+  require(std::isfinite(c.ground.friction_coefficient) && c.ground.friction_coefficient >= 0.0,
+          "simulation config: ground.friction_coefficient: expected >= 0, got ",
+          c.ground.friction_coefficient);
   require(c.divergence.max_position_m > 0.0 && c.divergence.max_speed_m_s > 0.0 &&
               c.divergence.max_angular_speed_rad_s > 0.0,
           "simulation config: divergence: limits must be positive");
@@ -64,6 +67,9 @@ Simulator::Simulator(std::shared_ptr<const VehicleModel> model, SimConfig config
 }
 
 StateVector Simulator::hover_state(const Vec3& position_W, double yaw_rad) {
+  require(position_W.allFinite(), "hover_state: position: expected finite numbers, got [",
+          position_W.transpose(), "]");
+  require(std::isfinite(yaw_rad), "hover_state: yaw_rad: expected a finite number, got ", yaw_rad);
   StateVector x = StateVector::Zero();
   x.segment<3>(state_index::kPosition) = position_W;
   x.segment<4>(state_index::kQuaternion) = math::from_euler(0.0, 0.0, yaw_rad);
@@ -78,10 +84,12 @@ void Simulator::check_rotor_vector(const RotorVector& v, const char* what) const
 }
 
 void Simulator::reset(const StateVector& state) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::reset");
   reset(state, RotorVector::Zero(model_->num_rotors()));
 }
 
 void Simulator::reset(const StateVector& state, const RotorVector& rotor_speeds_rad_s) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::reset");
   check_rotor_vector(rotor_speeds_rad_s, "reset: rotor speeds");
   set_state(state);
   data_.time_s = 0.0;
@@ -92,7 +100,7 @@ void Simulator::reset(const StateVector& state, const RotorVector& rotor_speeds_
   data_.rotor_speed_reference_rad_s = data_.rotor_speed_rad_s;
   data_.state_noise.reset();
   data_.derivative_noise.reset();
-  refresh_measured_state();
+  update_measured_state();
   data_.rng.reseed(config_.seed);
   data_.contact = ContactState{};
   if (config_.ground.enabled && data_.state[state_index::kPosition + 2] <= 0.0) {
@@ -103,11 +111,13 @@ void Simulator::reset(const StateVector& state, const RotorVector& rotor_speeds_
 }
 
 void Simulator::reseed(std::uint64_t seed) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::reseed");
   config_.seed = seed;
   reset(data_.state, data_.rotor_speed_rad_s);
 }
 
 void Simulator::set_state(const StateVector& state) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_state");
   for (int i = 0; i < kStateSize; ++i)
     require(std::isfinite(state[i]), "state[", i, "]: expected a finite number, got ", state[i]);
   const double qn = state.segment<4>(state_index::kQuaternion).norm();
@@ -119,31 +129,40 @@ void Simulator::set_state(const StateVector& state) {
   }
   data_.state = state;
   normalize_quaternion(data_.state);
-  refresh_measured_state();
+  update_measured_state();
 }
 
 void Simulator::refresh_measured_state() {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::refresh_measured_state");
+  update_measured_state();
+}
+
+void Simulator::update_measured_state() {
   data_.measured_state = data_.state;
   if (config_.noise.enabled) data_.measured_state += data_.state_noise.value();
 }
 
 void Simulator::set_noise_enabled(bool enabled) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_noise_enabled");
   config_.noise.enabled = enabled;
-  refresh_measured_state();
+  update_measured_state();
 }
 
 void Simulator::set_rotor_speeds(const RotorVector& speeds_rad_s) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_rotor_speeds");
   check_rotor_vector(speeds_rad_s, "rotor speeds");
   for (int i = 0; i < model_->num_rotors(); ++i)
     data_.rotor_speed_rad_s[i] = clamp_speed(model_->rotor(i), speeds_rad_s[i]);
 }
 
 void Simulator::set_rotor_speed_reference(const RotorVector& reference_rad_s) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_rotor_speed_reference");
   check_rotor_vector(reference_rad_s, "rotor speed reference");
   data_.rotor_speed_reference_rad_s = reference_rad_s;
 }
 
 void Simulator::set_generalized_force(const GeneralizedForce& u, AllocationMethod method) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_generalized_force");
   for (int i = 0; i < 4; ++i)
     require(std::isfinite(u[i]), "generalized force [T, tau_x, tau_y, tau_z][", i,
             "]: expected a finite number, got ", u[i]);
@@ -151,11 +170,13 @@ void Simulator::set_generalized_force(const GeneralizedForce& u, AllocationMetho
 }
 
 void Simulator::set_disturbances(const DisturbanceSwitches& switches) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_disturbances");
   config_.disturbances = switches;
   kernel_ = std::make_shared<const ForceKernel<double>>(*model_, ForceTerms::of(switches));
 }
 
 void Simulator::set_wind(const Vec3& wind_W_m_s) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_wind");
   require(wind_W_m_s.allFinite(), "wind: expected finite numbers, got [", wind_W_m_s.transpose(),
           "]");
   config_.environment.wind_W_m_s = wind_W_m_s;
@@ -171,17 +192,31 @@ StepStatus Simulator::check_state(const StateVector& x) const {
                v2 = x.segment<3>(kVelocity).squaredNorm(),
                q2 = x.segment<4>(kQuaternion).squaredNorm(),
                w2 = x.segment<3>(kAngularVelocity).squaredNorm();
+  // After normalisation |q|^2 is 1 up to rounding; 0 means a zero quaternion, which normalize()
+  // leaves at zero.
   if (p2 <= lim.max_position_m * lim.max_position_m &&
       v2 <= lim.max_speed_m_s * lim.max_speed_m_s &&
-      w2 <= lim.max_angular_speed_rad_s * lim.max_angular_speed_rad_s && q2 <= 4.0) {
+      w2 <= lim.max_angular_speed_rad_s * lim.max_angular_speed_rad_s && q2 <= 4.0 && q2 >= 0.25) {
     return StepStatus::kOk;
   }
-  return x.allFinite() ? StepStatus::kDiverged : StepStatus::kNonFinite;
+  if (!x.allFinite()) return StepStatus::kNonFinite;
+  if (!(q2 >= 0.25 && q2 <= 4.0)) return StepStatus::kInvalidState;
+  return StepStatus::kDiverged;
 }
 
 std::string Simulator::failure_message() const {
   const StepFailure& f = data_.failure;
   const DivergenceLimits& lim = config_.divergence;
+  if (f.started_invalid && data_.status != StepStatus::kOk &&
+      data_.status != StepStatus::kControllerFailed) {
+    const double qn = data_.state.segment<4>(state_index::kQuaternion).norm();
+    return detail::concat(
+        "the state before step ", f.step, " (t = ", f.time_s, " s) was not valid: ",
+        data_.state.allFinite() ? "" : "it has non-finite values (NaN or inf), ",
+        "quaternion norm ", qn,
+        "; it was written directly (mutable_data() or a Python state view), not produced by a "
+        "step. Write finite values and a non-zero quaternion, or use set_state()");
+  }
   switch (data_.status) {
     case StepStatus::kOk:
       return {};
@@ -194,11 +229,19 @@ std::string Simulator::failure_message() const {
                             " rad/s (limit ", lim.max_angular_speed_rad_s, ")");
     case StepStatus::kControllerFailed:
       return "the controller failed";
+    case StepStatus::kInvalidState:
+      return detail::concat("the state became invalid at t = ", f.time_s, " s (step ", f.step,
+                            "): its quaternion is not a rotation");
   }
   return {};
 }
 
 StepResult Simulator::step() {
+  guard_.check("Simulator::step");
+  return step_unchecked();
+}
+
+StepResult Simulator::step_unchecked() {
   if (data_.status != StepStatus::kOk) {
     throw SimulationError("Simulator::step: the run failed earlier (" + failure_message() +
                           "); call reset() first");
@@ -215,7 +258,7 @@ StepResult Simulator::step() {
   normalize_quaternion(next);
   // Contact is resolved on a copy: a refused step must not change it (nor anything else).
   ContactState contact = data_.contact;
-  resolve_ground_contact(config_.ground, next, contact);
+  resolve_ground_contact(config_.ground, data_.state, config_.dt_s, next, contact);
 
   const StepStatus status = check_state(next);
   if (status != StepStatus::kOk) {
@@ -226,6 +269,8 @@ StepResult Simulator::step() {
     data_.failure.position_m = next.segment<3>(kPosition).norm();
     data_.failure.speed_m_s = next.segment<3>(kVelocity).norm();
     data_.failure.angular_speed_rad_s = next.segment<3>(kAngularVelocity).norm();
+    const double q2 = data_.state.segment<4>(kQuaternion).squaredNorm();
+    data_.failure.started_invalid = !data_.state.allFinite() || !(q2 >= 0.25 && q2 <= 4.0);
     return {status, 0};
   }
   const VehicleModel& m = *model_;
@@ -241,17 +286,18 @@ StepResult Simulator::step() {
     data_.state_noise.step(data_.rng);
     data_.derivative_noise.step(data_.rng);
   }
-  refresh_measured_state();
+  update_measured_state();
   ++data_.step_count;
   data_.time_s = static_cast<double>(data_.step_count) * config_.dt_s;
   return {StepStatus::kOk, 1};
 }
 
 StepResult Simulator::step(std::int64_t n) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::step");
   require(n >= 0, "Simulator::step(n): expected n >= 0, got ", n);
   StepResult total;
   for (std::int64_t k = 0; k < n; ++k) {
-    const StepResult r = step();
+    const StepResult r = step_unchecked();
     if (!r.ok()) {
       total.status = r.status;
       return total;

@@ -286,7 +286,7 @@ def test_rmse_is_the_runners_metric_to_the_bit(qdrone2, tmp_path):
     }
     np.testing.assert_array_equal(dt.rmse(record), s.closed_loop.rmse)
     # a window whose ends fall on steps (and one a hair before a step) is the same in both
-    for window in [(0.5, 2.0), (0.5 - 1e-13, 2.0)]:
+    for i, window in enumerate([(0.5, 2.0), (0.5 - 1e-13, 2.0)]):
         e.metrics.window_s = window
-        w = dt.run_experiment(e, str(tmp_path / "window"))
+        w = dt.run_experiment(e, str(tmp_path / f"window{i}"))
         np.testing.assert_array_equal(dt.rmse(record, window_s=window), w.closed_loop.rmse)

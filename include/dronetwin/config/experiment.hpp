@@ -143,7 +143,7 @@ struct MetricsSettings {
 
 struct LogSettings {
   /// A row at t = 0 and then after every n-th physics step.
-  int every_n_steps = 1;
+  std::int64_t every_n_steps = 1;
   /// Adds F_<term>_{x,y,z}, M_<term>_{x,y,z} (body frame) for every force term.
   bool wrench_breakdown = false;
   /// Adds the measured (noisy) state, meas_x .. meas_wz.

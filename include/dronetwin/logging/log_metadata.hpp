@@ -70,7 +70,7 @@ struct LogMetadata {
   bool motor_dynamics = true;
   /// A row at t = 0 and after every n-th step: rows come at log_rate_hz = 1 / (n dt_s) (a failed
   /// run adds its last good state, possibly between two regular rows).
-  int log_every_n_steps = 1;
+  std::int64_t log_every_n_steps = 1;
   double log_rate_hz = 0.0;
   /// Closed loop only (input type controller): the controller file and its rate, Hz.
   std::optional<std::string> controller_path;

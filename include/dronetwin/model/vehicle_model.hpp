@@ -163,8 +163,12 @@ class VehicleModel : public VehicleModelTpl<double> {
   /// Per-rotor thrust (N) holding the vehicle still in the air, from the wrench pseudo-inverse
   /// applied to [0, 0, m g, 0, 0, 0] (g = 9.81 m/s^2 unless given).
   RotorVector hover_thrusts_N(double gravity_m_s2 = 9.81) const;
-  /// Per-rotor speeds (rad/s) giving hover_thrusts_N() through the full thrust polynomial.
+  /// Per-rotor speeds (rad/s) giving hover_thrusts_N() through the full thrust polynomial,
+  /// clamped to the speed limits (check can_hover() first: a clamped speed does not hover).
   RotorVector hover_speeds_rad_s(double gravity_m_s2 = 9.81) const;
+  /// True when every rotor can give its hover thrust within its speed limits at `gravity_m_s2`:
+  /// T(min speed) <= hover thrust <= T(max speed).
+  bool can_hover(double gravity_m_s2 = 9.81) const;
 
   /// Rotor thrusts for generalized forces u = [T, tau_x, tau_y, tau_z] (A^+ u), N.
   RotorVector thrusts_for(const GeneralizedForce& u) const;

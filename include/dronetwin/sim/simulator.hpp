@@ -22,6 +22,11 @@
 // are built when the simulator is (and when the switches change) and shared by its copies; each
 // step prepares the rotor-speed dependent terms once and evaluates them at the RK4 stages.
 //
+// Threads: one simulator, one thread at a time (copies are independent and may run on separate
+// threads). step(n), reset() and the setters detect a call from a second thread while another is
+// running and throw SimulationError (Python RuntimeError) instead of mixing the two; the
+// single-step step() notices another thread's step(n), run or reset (one relaxed load).
+//
 // Trap: a step that produces a non-finite or out-of-bounds state commits nothing (state, rotor
 // speeds, contact, noise and time stay as they were); the simulator enters the failed state
 // (status() and failure_message() say why) and step() throws until reset().
@@ -30,6 +35,7 @@
 #include <string>
 #include <string_view>
 
+#include "dronetwin/core/single_thread.hpp"
 #include "dronetwin/core/types.hpp"
 #include "dronetwin/dynamics/force_kernel.hpp"
 #include "dronetwin/dynamics/ground.hpp"
@@ -48,6 +54,7 @@ enum class StepStatus {
   kNonFinite,         ///< the integrated state had NaN or inf
   kDiverged,          ///< position, speed or angular speed beyond SimConfig::divergence
   kControllerFailed,  ///< the controller flying it threw or returned non-finite output
+  kInvalidState,      ///< a state that cannot be integrated (a zero quaternion)
 };
 
 constexpr std::string_view status_name(StepStatus s) {
@@ -60,6 +67,8 @@ constexpr std::string_view status_name(StepStatus s) {
       return "diverged";
     case StepStatus::kControllerFailed:
       return "controller_failed";
+    case StepStatus::kInvalidState:
+      return "invalid_state";
   }
   return "unknown";
 }
@@ -72,6 +81,9 @@ struct StepFailure {
   std::int64_t step = 0;
   /// |p|, |v|, |w| of the refused state (NaN when it was non-finite).
   double position_m = 0.0, speed_m_s = 0.0, angular_speed_rad_s = 0.0;
+  /// True when the state before the step was already invalid (non-finite, or a quaternion far
+  /// from unit): written directly through mutable_data() or a Python view, not produced by a step.
+  bool started_invalid = false;
 };
 
 /// Everything that changes while a simulator runs. Plain data: no heap, copyable as bytes.
@@ -173,9 +185,18 @@ class Simulator {
   /// through mutable_data()).
   void refresh_measured_state();
 
+  // ---- threads -----------------------------------------------------------------------------
+  /// Marks the simulator in use by this thread for the returned object's lifetime (a loop that
+  /// steps it many times takes it once). Throws SimulationError when another thread uses it.
+  [[nodiscard]] SingleThreadGuard::Hold exclusive_use(const char* what) const {
+    return SingleThreadGuard::Hold(guard_, what);
+  }
+
  private:
   void check_rotor_vector(const RotorVector& v, const char* what) const;
   StepStatus check_state(const StateVector& x) const;
+  StepResult step_unchecked();
+  void update_measured_state();
 
   std::shared_ptr<const VehicleModel> model_;
   SimConfig config_;
@@ -185,6 +206,7 @@ class Simulator {
   /// Scratch of the current step (the rotor-speed dependent terms); not state.
   HeldRotorTerms<double> held_;
   SimData data_;
+  SingleThreadGuard guard_;
 };
 
 }  // namespace dronetwin
