@@ -10,6 +10,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <tuple>
@@ -20,6 +21,18 @@
 namespace dronetwin {
 
 namespace {
+
+// Caps against hostile files (docs/reliability.md, "Hostile files: bounded memory").
+// A message's size field is uint16, so no format can describe more bytes than this.
+constexpr std::size_t kMaxMessageBytes = 65535;
+// PX4 nests two or three levels; deeper is a corrupt or recursive definition.
+constexpr int kMaxNesting = 32;
+// Columns (numeric values per message) of all topic instances of a file together, and the
+// characters of their names: a real PX4 log has some thousands of columns and well under 1 MiB
+// of names. Each topic instance counts as at least one column.
+constexpr std::size_t kMaxColumns = std::size_t{1} << 20;
+constexpr std::uint64_t kMaxNameBytes = std::uint64_t{64} << 20;
+constexpr std::uint64_t kNameCap = kMaxNameBytes + 1;  // "more than the limit", for sums
 
 enum class Basic {
   kInt8,
@@ -110,7 +123,8 @@ double basic_value(Basic t, const std::uint8_t* p) {
 }
 
 /// "type[n]" -> ("type", n, array); "type" -> ("type", 1, scalar). n may be 0 (an empty string
-/// value `char[0]`). Returns false for malformed array syntax.
+/// value `char[0]`). Returns false for malformed array syntax; a count too large for size_t is
+/// returned as SIZE_MAX (the callers' size checks then reject it with the number as written).
 bool split_array(std::string_view type, std::string_view& base, std::size_t& count,
                  bool& is_array) {
   const std::size_t open = type.find('[');
@@ -123,8 +137,32 @@ bool split_array(std::string_view type, std::string_view& base, std::size_t& cou
   if (type.back() != ']' || open == 0) return false;
   base = type.substr(0, open);
   const std::string_view digits = type.substr(open + 1, type.size() - open - 2);
+  if (digits.empty()) return false;
   const auto r = std::from_chars(digits.data(), digits.data() + digits.size(), count);
-  return r.ec == std::errc{} && r.ptr == digits.data() + digits.size() && !digits.empty();
+  if (r.ptr != digits.data() + digits.size()) return false;
+  if (r.ec == std::errc::result_out_of_range) {
+    count = std::numeric_limits<std::size_t>::max();
+    return true;
+  }
+  return r.ec == std::errc{};
+}
+
+/// Decimal digits of i.
+std::size_t digits(std::size_t i) {
+  std::size_t d = 1;
+  while (i >= 10) {
+    i /= 10;
+    ++d;
+  }
+  return d;
+}
+
+/// a + b and a * b, saturating at `cap` (operands are at most `cap`, so nothing overflows first).
+std::uint64_t add_capped(std::uint64_t a, std::uint64_t b, std::uint64_t cap) {
+  return std::min(a + b, cap);
+}
+std::uint64_t mul_capped(std::uint64_t a, std::uint64_t b, std::uint64_t cap) {
+  return (a != 0 && b > cap / a) ? cap : std::min(a * b, cap);
 }
 
 struct Field {
@@ -132,26 +170,47 @@ struct Field {
   std::size_t count = 1;  // number of elements (1 for a scalar)
   bool is_array = false;
   std::string name;
+  std::string declaration;  // "type name" as written, for messages
+
+  bool padding() const { return name.rfind("_padding", 0) == 0; }
+  /// char[n] is a string: not a column.
+  bool text(std::optional<Basic> basic) const { return basic == Basic::kChar && is_array; }
+};
+
+/// What a format flattens to, computed (and cached) at its first subscription.
+struct FormatInfo {
+  std::size_t size = 0;          // bytes, at most kMaxMessageBytes
+  std::size_t leaves = 0;        // numeric values (columns); at most size
+  std::uint64_t name_bytes = 0;  // characters of all column names, capped at kMaxNameBytes + 1
+};
+
+/// One numeric value inside a data message.
+struct Leaf {
+  std::size_t offset;
+  Basic type;
+};
+
+/// A format flattened to its columns, built at the first data message that needs it.
+struct Layout {
+  std::vector<Leaf> leaves;  // non-padding, non-text values
+  std::vector<std::string> names;
+  std::size_t min_size = 0;  // bytes needed for every leaf (trailing padding may be absent)
+  std::optional<std::size_t> timestamp_leaf;
 };
 
 struct Format {
   std::vector<Field> fields;
   std::size_t definition_offset = 0;
-};
-
-/// One numeric value inside a data message.
-struct Leaf {
-  std::string name;
-  std::size_t offset;
-  Basic type;
+  std::optional<FormatInfo> info;
+  bool visiting = false;  // on the stack of format_info (a format that contains itself)
+  std::optional<Layout> layout;
 };
 
 struct Subscription {
-  std::size_t topic_index;
-  std::vector<Leaf> leaves;   // non-padding, non-text values
-  std::size_t min_size = 0;   // bytes needed for every leaf (trailing padding may be absent)
-  std::size_t full_size = 0;  // bytes of the whole format
-  std::optional<std::size_t> timestamp_offset;
+  std::string name;
+  int multi_id = 0;
+  Format* format = nullptr;  // a node of Parser::formats_ (std::map nodes do not move)
+  std::optional<std::size_t> topic_index;  // set at its first data message
 };
 
 class Parser {
@@ -167,66 +226,106 @@ class Parser {
     throw InvalidArgument(detail::concat(source_, ": byte ", offset, ": ", parts...));
   }
 
-  std::size_t format_size(const std::string& name, std::size_t at, int depth);
-  void flatten(const std::string& format_name, const std::string& prefix, std::size_t base,
-               std::size_t at, int depth, std::vector<Leaf>& out);
+  const FormatInfo& format_info(const std::string& name, Format& format, std::size_t at, int depth);
+  void flatten(const Format& format, const std::string& prefix, std::size_t base, Layout& out);
   std::string decode_value(std::string_view type, const std::uint8_t* p, std::size_t n,
                            std::size_t at, double* number);
   void parse_format(const std::uint8_t* p, std::size_t n, std::size_t at);
   void parse_key_value(const std::uint8_t* p, std::size_t n, std::size_t at, char kind);
   void parse_subscription(const std::uint8_t* p, std::size_t n, std::size_t at);
+  std::size_t first_data(Subscription& s, std::size_t at);
   void parse_data(const std::uint8_t* p, std::size_t n, std::size_t at);
 
   const std::vector<std::uint8_t>& b_;
   const std::string& source_;
   ULog log_;
   std::map<std::string, Format> formats_;
-  std::map<std::string, std::size_t> size_cache_;
   std::map<std::uint16_t, Subscription> subscriptions_;
   std::map<std::pair<std::string, int>, std::size_t> topic_index_;
+  std::size_t columns_ = 0;       // columns of every topic so far (capped at kMaxColumns)
+  std::uint64_t name_bytes_ = 0;  // characters of their names (capped at kMaxNameBytes)
   bool data_section_ = false;
   std::size_t appended_offset_ = 0;  // 0: no appended data
 };
 
-std::size_t Parser::format_size(const std::string& name, std::size_t at, int depth) {
-  if (const auto t = basic_type(name)) return basic_size(*t);
-  if (const auto it = size_cache_.find(name); it != size_cache_.end()) return it->second;
-  if (depth > 32)
-    fail(at, "message formats nest deeper than 32 levels (recursive format '", name, "'?)");
-  const auto f = formats_.find(name);
-  if (f == formats_.end()) fail(at, "unknown type '", name, "' (no format 'F' message defines it)");
-  std::size_t size = 0;
-  for (const Field& field : f->second.fields) {
-    size += format_size(field.type_name, at, depth + 1) * field.count;
+/// Size, column count and column-name length of a format, checked against the message limit
+/// field by field with overflow-safe arithmetic; `at` is the offset of the message that uses it.
+const FormatInfo& Parser::format_info(const std::string& name, Format& format, std::size_t at,
+                                      int depth) {
+  if (format.info) return *format.info;
+  if (format.visiting) {
+    fail(at, "format '", name, "' contains itself (a recursive format has no finite size)");
   }
-  size_cache_[name] = size;
-  return size;
+  if (depth >= kMaxNesting) {
+    fail(at, "format '", name, "': message formats nest deeper than ", kMaxNesting, " levels");
+  }
+  format.visiting = true;
+  FormatInfo info;
+  for (const Field& field : format.fields) {
+    const auto basic = basic_type(field.type_name);
+    FormatInfo elem;
+    if (basic) {
+      elem = {basic_size(*basic), 1, 0};
+    } else {
+      const auto nested = formats_.find(field.type_name);
+      if (nested == formats_.end()) {
+        fail(at, "format '", name, "', field '", field.declaration, "': unknown type '",
+             field.type_name, "' (no format 'F' message defines it)");
+      }
+      elem = format_info(nested->first, nested->second, at, depth + 1);
+    }
+    // count * elem.size <= kMaxMessageBytes - info.size, without computing the product first.
+    if (elem.size != 0 && field.count > (kMaxMessageBytes - info.size) / elem.size) {
+      fail(at, "format '", name, "', field '", field.declaration, "': ", field.count, " x ",
+           elem.size, " bytes make the format larger than ", kMaxMessageBytes,
+           " bytes, the limit of a ULog message (format defined at byte ", format.definition_offset,
+           ")");
+    }
+    info.size += field.count * elem.size;
+    if (field.padding() || field.text(basic) || elem.leaves == 0) continue;
+    // Every leaf of every element, named prefix + the element's own column name, where the prefix
+    // is `name`, `name[i]`, `name.` or `name[i].`; elem.leaves >= 1 implies elem.size >= 1, so
+    // count <= kMaxMessageBytes here and the loop is short.
+    const std::uint64_t dot = basic ? 0 : 1;
+    std::uint64_t prefixes = mul_capped(field.count, field.name.size() + dot, kNameCap);
+    if (field.is_array) {
+      for (std::size_t i = 0; i < field.count; ++i) prefixes += 2 + digits(i);
+      prefixes = std::min(prefixes, kNameCap);
+    }
+    info.leaves += field.count * elem.leaves;  // <= info.size <= kMaxMessageBytes
+    info.name_bytes =
+        add_capped(info.name_bytes, mul_capped(prefixes, elem.leaves, kNameCap), kNameCap);
+    info.name_bytes =
+        add_capped(info.name_bytes, mul_capped(field.count, elem.name_bytes, kNameCap), kNameCap);
+  }
+  format.visiting = false;
+  format.info = info;
+  return *format.info;
 }
 
-void Parser::flatten(const std::string& format_name, const std::string& prefix, std::size_t base,
-                     std::size_t at, int depth, std::vector<Leaf>& out) {
-  const auto f = formats_.find(format_name);
-  if (f == formats_.end()) fail(at, "unknown format '", format_name, "'");
+void Parser::flatten(const Format& format, const std::string& prefix, std::size_t base,
+                     Layout& out) {
   std::size_t offset = base;
-  for (const Field& field : f->second.fields) {
-    const std::size_t elem = format_size(field.type_name, at, depth + 1);
-    const std::size_t n = field.count;
-    const bool padding = field.name.rfind("_padding", 0) == 0;
+  for (const Field& field : format.fields) {
     const auto basic = basic_type(field.type_name);
-    const bool text = basic == Basic::kChar && field.is_array;
-    if (!padding && !text) {
-      for (std::size_t i = 0; i < n; ++i) {
+    // format_info() has checked every nested format and cached its numbers.
+    const Format* nested = basic ? nullptr : &formats_.find(field.type_name)->second;
+    const std::size_t elem = basic ? basic_size(*basic) : nested->info->size;
+    const std::size_t elem_leaves = basic ? 1 : nested->info->leaves;
+    if (!field.padding() && !field.text(basic) && elem_leaves != 0) {
+      for (std::size_t i = 0; i < field.count; ++i) {
         std::string name = prefix + field.name;
         if (field.is_array) name += "[" + std::to_string(i) + "]";
         const std::size_t o = offset + i * elem;
         if (basic) {
-          out.push_back({std::move(name), o, *basic});
+          out.leaves.push_back({o, *basic});
+          out.names.push_back(std::move(name));
         } else {
-          flatten(field.type_name, name + ".", o, at, depth + 1, out);
+          flatten(*nested, name + ".", o, out);
         }
       }
     }
-    offset += elem * n;
+    offset += elem * field.count;
   }
 }
 
@@ -238,16 +337,16 @@ std::string Parser::decode_value(std::string_view type, const std::uint8_t* p, s
   if (!split_array(type, base, count, is_array)) fail(at, "malformed type '", type, "'");
   const auto t = basic_type(base);
   if (!t) fail(at, "value type '", type, "' is not a basic type");
-  if (*t == Basic::kChar && is_array) {
-    if (n != count) fail(at, "value of type ", type, " has ", n, " bytes, expected ", count);
-    return std::string(reinterpret_cast<const char*>(p), n);
+  const std::size_t elem = basic_size(*t);
+  // n == count * elem, without computing a product that may overflow.
+  if (count > n / elem || count * elem != n) {
+    fail(at, "value of type ", type, " has ", n, " bytes, expected ", count, " x ", elem);
   }
-  const std::size_t expect = basic_size(*t) * count;
-  if (n != expect) fail(at, "value of type ", type, " has ", n, " bytes, expected ", expect);
+  if (*t == Basic::kChar && is_array) return std::string(reinterpret_cast<const char*>(p), n);
   std::ostringstream out;
   out.precision(17);
   for (std::size_t i = 0; i < count; ++i) {
-    const double v = basic_value(*t, p + i * basic_size(*t));
+    const double v = basic_value(*t, p + i * elem);
     if (i == 0 && number) *number = v;
     if (i > 0) out << ' ';
     if (*t == Basic::kInt64) {
@@ -271,6 +370,7 @@ void Parser::parse_format(const std::uint8_t* p, std::size_t n, std::size_t at) 
   Format f;
   f.definition_offset = at;
   std::size_t start = colon + 1;
+  std::size_t basic_bytes = 0;  // the fields of basic types so far
   while (start < text.size()) {
     std::size_t semi = text.find(';', start);
     if (semi == std::string_view::npos) semi = text.size();
@@ -288,12 +388,25 @@ void Parser::parse_format(const std::uint8_t* p, std::size_t n, std::size_t at) 
     }
     field.type_name = std::string(base);
     field.name = std::string(item.substr(space + 1));
+    field.declaration = std::string(item);
+    // Reject what cannot fit in a message here, where the file says it; nested formats may be
+    // defined later and are checked when the format is subscribed (format_info).
+    if (field.count > kMaxMessageBytes) {
+      fail(at, "format '", name, "', field '", item, "': ", field.count,
+           " elements exceed the limit of a ULog message (", kMaxMessageBytes, " bytes)");
+    }
+    if (const auto t = basic_type(field.type_name)) {
+      basic_bytes += field.count * basic_size(*t);  // <= 65535 * 8 + previous <= 65535
+      if (basic_bytes > kMaxMessageBytes) {
+        fail(at, "format '", name, "', field '", item, "': the fields so far take ", basic_bytes,
+             " bytes, more than ", kMaxMessageBytes, ", the limit of a ULog message");
+      }
+    }
     f.fields.push_back(std::move(field));
   }
   if (f.fields.empty()) fail(at, "format '", name, "' has no fields");
   if (formats_.count(name)) fail(at, "format '", name, "' defined twice");
   formats_.emplace(name, std::move(f));
-  size_cache_.clear();
 }
 
 void Parser::parse_key_value(const std::uint8_t* p, std::size_t n, std::size_t at, char kind) {
@@ -343,35 +456,58 @@ void Parser::parse_subscription(const std::uint8_t* p, std::size_t n, std::size_
   if (n < 4) fail(at, "subscription 'A' message too short (", n, " bytes, expected >= 4)");
   const int multi_id = p[0];
   const auto msg_id = load<std::uint16_t>(p + 1);
-  const std::string name(reinterpret_cast<const char*>(p + 3), n - 3);
-  if (!formats_.count(name)) fail(at, "subscription to '", name, "' which has no format");
+  std::string name(reinterpret_cast<const char*>(p + 3), n - 3);
+  const auto f = formats_.find(name);
+  if (f == formats_.end()) fail(at, "subscription to '", name, "' which has no format");
   if (subscriptions_.count(msg_id)) fail(at, "msg_id ", msg_id, " subscribed twice");
-  Subscription s;
-  const auto key = std::make_pair(name, multi_id);
-  auto it = topic_index_.find(key);
-  if (it == topic_index_.end()) {
-    it = topic_index_.emplace(key, log_.topics.size()).first;
-    ULogTopic t;
-    t.name = name;
-    t.multi_id = multi_id;
-    log_.topics.push_back(std::move(t));
+  // Sizes, nesting and column counts are checked here; the columns themselves are built at the
+  // first data message, so that a subscription costs no memory beyond its own few bytes.
+  (void)format_info(f->first, f->second, at, 0);
+  subscriptions_.emplace(msg_id, Subscription{std::move(name), multi_id, &f->second, {}});
+}
+
+/// The topic of a subscription at its first data message: the format's layout (built once per
+/// format) and the topic instance (once per name and multi_id), within the reader's caps.
+std::size_t Parser::first_data(Subscription& s, std::size_t at) {
+  const auto key = std::make_pair(s.name, s.multi_id);
+  if (const auto it = topic_index_.find(key); it != topic_index_.end()) return it->second;
+  const FormatInfo& info = *s.format->info;
+  const std::size_t columns = std::max<std::size_t>(info.leaves, 1);
+  if (columns > kMaxColumns - columns_) {
+    fail(at, "topic '", s.name, "' (multi_id ", s.multi_id, ") adds ", columns, " columns to the ",
+         columns_, " of the topics before it, more than the reader's limit of ", kMaxColumns,
+         " columns in a file");
   }
-  s.topic_index = it->second;
-  flatten(name, "", 0, at, 0, s.leaves);
-  s.full_size = format_size(name, at, 0);
-  for (const Leaf& leaf : s.leaves) {
-    s.min_size = std::max(s.min_size, leaf.offset + basic_size(leaf.type));
-    if (leaf.name == "timestamp" && leaf.type == Basic::kUint64) s.timestamp_offset = leaf.offset;
+  if (info.name_bytes > kMaxNameBytes - name_bytes_) {
+    fail(at, "topic '", s.name, "' (multi_id ", s.multi_id, "): its column names take ",
+         info.name_bytes >= kNameCap ? "more than " : "", std::min(info.name_bytes, kMaxNameBytes),
+         " bytes, which with the ", name_bytes_,
+         " bytes of the topics before it exceeds the reader's limit of ", kMaxNameBytes,
+         " bytes of column names in a file");
   }
-  ULogTopic& topic = log_.topics[s.topic_index];
-  if (topic.columns.empty()) {
-    topic.columns.reserve(s.leaves.size());
-    for (const Leaf& leaf : s.leaves) topic.columns.push_back(leaf.name);
-    topic.values.assign(s.leaves.size(), {});
-  } else if (topic.columns.size() != s.leaves.size()) {
-    fail(at, "topic '", name, "' instance ", multi_id, " re-subscribed with a different format");
+  columns_ += columns;
+  name_bytes_ += info.name_bytes;
+  if (!s.format->layout) {
+    Layout layout;
+    layout.leaves.reserve(info.leaves);
+    layout.names.reserve(info.leaves);
+    flatten(*s.format, "", 0, layout);
+    for (std::size_t i = 0; i < layout.leaves.size(); ++i) {
+      const Leaf& leaf = layout.leaves[i];
+      layout.min_size = std::max(layout.min_size, leaf.offset + basic_size(leaf.type));
+      if (layout.names[i] == "timestamp" && leaf.type == Basic::kUint64) layout.timestamp_leaf = i;
+    }
+    s.format->layout = std::move(layout);
   }
-  subscriptions_.emplace(msg_id, std::move(s));
+  const std::size_t index = log_.topics.size();
+  ULogTopic t;
+  t.name = s.name;
+  t.multi_id = s.multi_id;
+  t.columns = s.format->layout->names;
+  t.values.assign(t.columns.size(), {});
+  log_.topics.push_back(std::move(t));
+  topic_index_.emplace(key, index);
+  return index;
 }
 
 void Parser::parse_data(const std::uint8_t* p, std::size_t n, std::size_t at) {
@@ -381,18 +517,24 @@ void Parser::parse_data(const std::uint8_t* p, std::size_t n, std::size_t at) {
   if (it == subscriptions_.end()) {
     fail(at, "data message for msg_id ", msg_id, ", which no 'A' message subscribed");
   }
-  const Subscription& s = it->second;
+  Subscription& s = it->second;
   const std::uint8_t* d = p + 2;
   const std::size_t size = n - 2;
-  ULogTopic& topic = log_.topics[s.topic_index];
-  if (size < s.min_size || size > s.full_size) {
-    fail(at, "data message of '", topic.name, "' has ", size, " bytes, expected ", s.min_size, "..",
-         s.full_size);
+  const FormatInfo& info = *s.format->info;
+  if (size > info.size) {
+    fail(at, "data message of '", s.name, "' has ", size, " bytes, expected at most ", info.size);
   }
-  for (std::size_t i = 0; i < s.leaves.size(); ++i) {
-    const Leaf& leaf = s.leaves[i];
+  if (!s.topic_index) s.topic_index = first_data(s, at);
+  const Layout& layout = *s.format->layout;
+  if (size < layout.min_size) {
+    fail(at, "data message of '", s.name, "' has ", size, " bytes, expected ", layout.min_size,
+         "..", info.size);
+  }
+  ULogTopic& topic = log_.topics[*s.topic_index];
+  for (std::size_t i = 0; i < layout.leaves.size(); ++i) {
+    const Leaf& leaf = layout.leaves[i];
     double v = basic_value(leaf.type, d + leaf.offset);
-    if (s.timestamp_offset && leaf.offset == *s.timestamp_offset && leaf.name == "timestamp") {
+    if (i == layout.timestamp_leaf) {
       const auto us = load<std::uint64_t>(d + leaf.offset);
       topic.timestamp_us.push_back(us);
       v = static_cast<double>(us) * 1e-6;

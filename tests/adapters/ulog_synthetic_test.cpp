@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "adapters/ulog_bytes.hpp"
 #include "dronetwin/adapters/ulog.hpp"
 #include "dronetwin/core/error.hpp"
 #include "test_support.hpp"
@@ -18,43 +19,10 @@
 namespace dronetwin {
 namespace {
 
+using test::Bytes;
 using test::error_of;
-
-class Bytes {
- public:
-  template <class T>
-  Bytes& put(T v) {
-    const auto* p = reinterpret_cast<const std::uint8_t*>(&v);
-    b_.insert(b_.end(), p, p + sizeof(T));
-    return *this;
-  }
-  Bytes& text(const std::string& s) {
-    b_.insert(b_.end(), s.begin(), s.end());
-    return *this;
-  }
-  Bytes& append(const Bytes& other) {
-    b_.insert(b_.end(), other.b_.begin(), other.b_.end());
-    return *this;
-  }
-  const std::vector<std::uint8_t>& bytes() const { return b_; }
-  std::size_t size() const { return b_.size(); }
-
- private:
-  std::vector<std::uint8_t> b_;
-};
-
-/// Appends one message [uint16 size][uint8 type][payload].
-void message(Bytes& f, char type, const Bytes& payload) {
-  f.put(static_cast<std::uint16_t>(payload.size())).put(type).append(payload);
-}
-
-Bytes key_value(const std::string& key, const Bytes& value, int prefix = -1) {
-  Bytes p;
-  if (prefix >= 0) p.put(static_cast<std::uint8_t>(prefix));
-  p.put(static_cast<std::uint8_t>(key.size())).text(key);
-  p.append(value);
-  return p;
-}
+using test::key_value;
+using test::message;
 
 /// The "all" message's payload (without msg_id) for a value offset k; trailing padding omitted.
 Bytes all_payload(std::uint64_t t_us, int k) {
@@ -83,9 +51,7 @@ Bytes all_payload(std::uint64_t t_us, int k) {
 }
 
 std::vector<std::uint8_t> synthetic_log() {
-  Bytes f;
-  f.text("ULog").put(std::uint8_t{0x01}).put(std::uint8_t{0x12}).put(std::uint8_t{0x35});
-  f.put(std::uint8_t{1}).put(std::uint64_t{1000});
+  Bytes f = test::ulog_header(1000);
   // Flag bits: appended data; offset patched below.
   const std::size_t flags_at = f.size();
   {

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -13,6 +14,7 @@
 #include <sstream>
 #include <string>
 
+#include "adapters/ulog_bytes.hpp"
 #include "dronetwin/logging/csv_log.hpp"
 
 namespace dronetwin {
@@ -126,6 +128,28 @@ TEST_F(RealDataCli, BadInputExitsWithTwoAndNamesTheFile) {
   EXPECT_EQ(run("import ulog " + q(kStand) + " --out " + d(), nullptr, &err), 2);
   EXPECT_NE(err.find("byte 0: not a ULog file"), std::string::npos) << err;
   EXPECT_EQ(run("identify", nullptr, &err), 2);
+}
+
+TEST_F(RealDataCli, ULogWithAHugeArrayIsRefusedWithoutEatingMemory) {
+  // ~100 bytes declaring 2e9 floats per message: before the caps, `import ulog` grew past 12 GB.
+  test::Bytes f = test::ulog_header();
+  test::format(f, "huge:uint64_t timestamp;float[2000000000] x");
+  test::subscribe(f, "huge", 0);
+  test::message(f, 'D', test::Bytes().put(std::uint16_t{0}).put(std::uint64_t{1}).put(1.0f));
+  const fs::path file = dir_ / "huge.ulg";
+  {
+    std::ofstream out(file, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(f.bytes().data()),
+              static_cast<std::streamsize>(f.size()));
+  }
+  std::string err;
+  EXPECT_EQ(run("import ulog " + q(file.string()) + " --out " + d(), nullptr, &err), 2);
+  EXPECT_NE(err.find(file.string() + ": byte 16: format 'huge', field 'float[2000000000] x': "
+                                     "2000000000 elements exceed the limit of a ULog message "
+                                     "(65535 bytes)"),
+            std::string::npos)
+      << err;
+  EXPECT_FALSE(fs::exists(dir_ / "huge.csv"));
 }
 
 }  // namespace

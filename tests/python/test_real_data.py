@@ -2,6 +2,11 @@
 independent numpy least-squares solution) and a real-flight mass fit."""
 
 import glob
+import json
+import resource
+import struct
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -34,6 +39,51 @@ def test_ulog_errors_name_the_file(tmp_path):
     bad.write_bytes(open(ULOG, "rb").read()[:10])
     with pytest.raises(ValueError, match="truncated.ulg"):
         dt.read_ulog(str(bad))
+
+
+def huge_array_ulog(path):
+    """~100 bytes declaring 2e9 floats per message (before the caps: > 12 GB or bad_alloc)."""
+    def message(kind, payload):
+        return struct.pack("<HB", len(payload), ord(kind)) + payload
+    data = (b"ULog\x01\x12\x35\x01" + struct.pack("<Q", 1000)
+            + message("F", b"huge:uint64_t timestamp;float[2000000000] x")
+            + message("A", struct.pack("<BH", 0, 0) + b"huge")
+            + message("D", struct.pack("<HQf", 0, 1, 1.0)))
+    path.write_bytes(data)
+    return path
+
+
+_REFUSE_IN_CHILD = """
+import json, sys
+import dronetwin as dt
+out = []
+for call in (lambda: dt.read_ulog(sys.argv[1]), lambda: dt.import_ulog(sys.argv[1], sys.argv[2])):
+    try:
+        call()
+        out.append("accepted")
+    except ValueError as e:
+        out.append("ValueError: " + str(e))
+    except MemoryError as e:
+        out.append("MemoryError: " + str(e))
+print(json.dumps(out))
+"""
+
+
+def test_ulog_huge_array_is_refused_in_bounded_memory(tmp_path):
+    ulg = huge_array_ulog(tmp_path / "huge.ulg")
+    stem = tmp_path / "out"
+
+    def limit_address_space():  # 2 GiB: far below what the unbounded reader asked for
+        resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))
+
+    run = subprocess.run([sys.executable, "-c", _REFUSE_IN_CHILD, str(ulg), str(stem)],
+                         capture_output=True, text=True, timeout=120,
+                         preexec_fn=limit_address_space)
+    assert run.returncode == 0, run.stderr
+    expected = (f"ValueError: {ulg}: byte 16: format 'huge', field 'float[2000000000] x': "
+                "2000000000 elements exceed the limit of a ULog message (65535 bytes)")
+    assert json.loads(run.stdout) == [expected, expected]
+    assert not stem.with_suffix(".csv").exists()
 
 
 def test_thrust_stand_fit_matches_independent_least_squares():

@@ -24,6 +24,15 @@
 //
 // Errors: InvalidArgument naming the file, the byte offset of the offending message, and what was
 // expected (bad magic, truncated message, unknown format or message id, inconsistent sizes).
+//
+// Hostile files (docs/reliability.md, "Hostile files: bounded memory"): a format may describe at
+// most 65535 bytes, the most a message can hold (its size field is uint16); sizes are summed and
+// multiplied through nested formats without overflow and checked before anything is allocated,
+// so `float[2000000000] x` is refused at its 'F' message naming the format and field. A format
+// that contains itself, nests deeper than 32 levels or names an unknown type is refused where it
+// is subscribed. The columns of a topic are built at its first data message, and all topics of
+// a file together may have at most 2^20 columns with 64 MiB of column names; apart from that the
+// memory a file takes is proportional to its size (each logged value becomes one double).
 
 #include <cstddef>
 #include <cstdint>
