@@ -126,6 +126,20 @@ input: {type: constant_rotor_speeds, rotor_speeds_rad_s: stopped}
   EXPECT_NE(json.find("\"failure_message\": \"state diverged"), std::string::npos) << json;
 }
 
+TEST_F(RunExperiment, EveryNStepsBeyondInt32IsHonoured) {
+  // 2^32 + 5 steps between rows: an int32 would wrap it to 5 (11 rows in 50 steps). A run that
+  // ends well logs on its schedule only: here the row at t = 0.
+  const Experiment e =
+      experiment("duration_s: 0.05\nlog: {every_n_steps: 4294967301}\ninput: {type: hover}\n");
+  EXPECT_EQ(e.log.every_n_steps, 4294967301LL);
+  const RunSummary s = run_experiment(e, out());
+  ASSERT_TRUE(s.ok()) << s.failure_message;
+  const LogTable log = read_csv_log(s.log_path);
+  EXPECT_EQ(s.steps, 50);
+  ASSERT_EQ(log.rows(), 1u);
+  EXPECT_EQ(log.at(0, log.column("t")), 0.0);
+}
+
 TEST_F(RunExperiment, SummaryJsonHasEveryField) {
   const Experiment e = experiment("duration_s: 0.05\nseed: 9\ninput: {type: hover}\n");
   const RunSummary s = run_experiment(e, out());

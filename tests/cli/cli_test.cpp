@@ -256,6 +256,88 @@ TEST_F(Cli, OverridesAndUsage) {
   EXPECT_NE(r.err.find("unknown key"), std::string::npos) << r.err;
 }
 
+// ---- outputs are never lost (issue "Reliability") ----------------------------------------------
+
+TEST_F(Cli, AnEarlierRunIsKeptUnlessForced) {
+  const std::string freefall = kExperiments + "freefall.yaml";
+  ASSERT_EQ(run_experiment(freefall, "r", "--duration 0.2 -q").exit_code, 0);
+  const std::string first = read_all(out("r") / "log.csv");
+  CliResult r = run_experiment(freefall, "r", "--duration 0.1 -q");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("exists (an earlier run?)"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--force"), std::string::npos) << r.err;
+  EXPECT_EQ(read_all(out("r") / "log.csv"), first);  // untouched
+  r = run_experiment(freefall, "r", "--duration 0.1 -q --force");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(read_all(out("r") / "log.csv"), first);
+  EXPECT_EQ(json_number(read_all(out("r") / "summary.json"), "steps"), 100.0);
+  for (const auto& entry : fs::directory_iterator(out("r")))  // no temporary file left behind
+    EXPECT_EQ(entry.path().filename().string().find(".partial"), std::string::npos) << entry.path();
+}
+
+TEST_F(Cli, TwoRunsIntoOneFolderNeverTearTheLog) {
+  // Both start at once. Whichever comes second finds the folder locked (or, if the first is
+  // already done, a finished run): exactly one writes, and what it wrote is a whole run.
+  const std::string pid = kExperiments + "pid_pulse_noise_off.yaml";
+  ASSERT_EQ(run_experiment(pid, "reference", "-q").exit_code, 0);
+  const std::string target = (dir_ / "same").string();
+  std::string script;
+  for (int i = 0; i < 2; ++i) {
+    const std::string n = std::to_string(i);
+    script += "(\"" + kCli + "\" run \"" + pid + "\" --out \"" + target + "\" -q > \"" +
+              (dir_ / ("out" + n)).string() + "\" 2> \"" + (dir_ / ("err" + n)).string() +
+              "\"; echo $? > \"" + (dir_ / ("code" + n)).string() + "\") & ";
+  }
+  script += "wait";
+  ASSERT_EQ(std::system(script.c_str()), 0);
+  int succeeded = 0;
+  for (int i = 0; i < 2; ++i) {
+    const std::string n = std::to_string(i);
+    const int code = std::stoi(read_all(dir_ / ("code" + n)));
+    const std::string err = read_all(dir_ / ("err" + n));
+    if (code == 0) {
+      ++succeeded;
+    } else {
+      EXPECT_EQ(code, 2) << err;
+      EXPECT_TRUE(err.find("another dronetwin command is writing into this folder") !=
+                      std::string::npos ||
+                  err.find("exists (an earlier run?)") != std::string::npos)
+          << err;
+    }
+  }
+  EXPECT_EQ(succeeded, 1);
+  EXPECT_EQ(read_all(fs::path(target) / "log.csv"), read_all(out("reference") / "log.csv"));
+  EXPECT_EQ(read_all(fs::path(target) / "log.json"), read_all(out("reference") / "log.json"));
+}
+
+TEST_F(Cli, AModelThatCannotHoverIsSaidSoNotPrintedAsReachable) {
+  // The QDrone2 at 10 times its mass: m g / 4 = 36.9 N per rotor, far above what a rotor gives
+  // at its maximum speed.
+  std::string model = read_all(kSourceDir + "/models/qdrone2.yaml");
+  const auto pos = model.find("mass_kg: 1.504");
+  ASSERT_NE(pos, std::string::npos);
+  model.replace(pos, 14, "mass_kg: 15.04");
+  std::ofstream(dir_ / "heavy.yaml") << model;
+  CliResult r = run("info \"" + (dir_ / "heavy.yaml").string() + "\"");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("hover (g = 9.81 m/s^2): NOT POSSIBLE"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("more than this rotor gives at its maximum speed"), std::string::npos);
+  EXPECT_EQ(r.out.find("rpm"), std::string::npos) << "a clamped hover speed printed: " << r.out;
+  EXPECT_NE(r.err.find("warning: "), std::string::npos) << r.err;
+
+  // An experiment that asks for its hover speeds runs, but says they do not hold it.
+  std::string experiment = read_all(kExperiments + "hover_open_loop.yaml");
+  const auto m = experiment.find("model: ../../models/qdrone2.yaml");
+  ASSERT_NE(m, std::string::npos);
+  experiment.replace(m, 32, "model: heavy.yaml");
+  std::ofstream(dir_ / "heavy_hover.yaml") << experiment;
+  r = run_experiment((dir_ / "heavy_hover.yaml").string(), "h", "--duration 0.1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string summary = read_all(out("h") / "summary.json");
+  EXPECT_NE(summary.find("cannot hover at g = 9.81"), std::string::npos) << summary;
+  EXPECT_NE(r.err.find("warning: qdrone2 cannot hover"), std::string::npos) << r.err;
+}
+
 // ---- closed loop ------------------------------------------------------------------------------
 
 /// The number after "key": inside the summary's "rmse" object.

@@ -601,6 +601,8 @@ const std::vector<BadCase> kBadCases = {
     {"control_rate_not_dividing.yaml",
      {"input.control_rate_hz: expected a rate that divides the physics rate 1000 Hz",
       "got 300 Hz"}},
+    {"control_rate_tiny.yaml",
+     {"input.control_rate_hz: expected a rate that divides the physics rate", "got 1e-300 Hz"}},
     {"disturbance_key_typo.yaml",
      {"disturbances: unknown key 'groundeffect'", "did you mean 'ground_effect'?"}},
     {"dt_too_large.yaml", {"physics_dt_s: expected a step in (0, 0.1] s, got 0.5"}},
@@ -624,10 +626,15 @@ const std::vector<BadCase> kBadCases = {
     {"quaternion_and_euler.yaml",
      {"initial_state: give either quaternion_wxyz or euler_rad, not both"}},
     {"quoted_number.yaml", {"duration_s: expected a number, got the string \"1.0\""}},
+    {"reference_not_finite_at_zero.yaml",
+     {"input.reference: is not finite at t = 0 s (circle r = 2 m"}},
     {"rotor_speeds_in_rpm.yaml",
      {"input.rotor_speeds_rad_s[0]: expected a speed within the limits", "got 11210"}},
     {"segment_wrong_rotor_count.yaml",
      {"input.segments[1].rotor_speeds_rad_s: expected 4 numbers (rotors of qdrone2), got 3"}},
+    {"segments_on_one_step.yaml",
+     {"input.segments[2].start_s:", "takes effect at the same physics step (501",
+      "as input.segments[1]", "the earlier segment would never fly"}},
     {"start_below_ground.yaml", {"initial_state.position_m[2]: expected z >= 0", "got -1"}},
     {"unknown_input_type.yaml",
      {"input.type: unknown input type 'constant_rotor_speed'",
@@ -676,7 +683,7 @@ TEST(BadExperimentCorpus, CorpusIsFullyCovered) {
   std::set<std::string> covered;
   for (const BadCase& c : kBadCases) covered.insert(c.file);
   EXPECT_EQ(files, covered);
-  EXPECT_EQ(files.size(), 33u);
+  EXPECT_EQ(files.size(), 36u);
   EXPECT_GE(files.size(), 10u);
 }
 

@@ -290,3 +290,47 @@ def test_rmse_is_the_runners_metric_to_the_bit(qdrone2, tmp_path):
         e.metrics.window_s = window
         w = dt.run_experiment(e, str(tmp_path / f"window{i}"))
         np.testing.assert_array_equal(dt.rmse(record, window_s=window), w.closed_loop.rmse)
+
+
+class TurnsNaNReference(dt.Reference):
+    """Hover at 1 m until t = 0.05 s, then a non-finite position."""
+
+    def at(self, t_s):
+        x = 0.0 if t_s < 0.05 - 1e-12 else float("nan")
+        return dt.ReferencePoint([x, 0.0, 1.0])
+
+
+def test_record_keeps_the_flight_up_to_a_non_finite_reference(qdrone2):
+    sim = start_hovering(qdrone2)
+    loop = dt.ClosedLoop(sim, dt.load_controller(source_path("config", "controllers", "pid.yaml"),
+                                                 qdrone2, 1000.0), TurnsNaNReference(), 1000.0)
+    log = loop.record(1.0)
+    assert log["status"] != dt.StepStatus.OK
+    assert "reference" in log["failure_message"] and "finite" in log["failure_message"]
+    assert log["t"].shape == (51,)
+    assert np.all(np.isfinite(log["state"]))
+
+
+class ReturnsText(dt.ControllerBase):
+    def calculate_u(self, inp):
+        return "thrust"
+
+
+class NamesItselfWithANumber(HoverSpeeds):
+    def name(self):
+        return 42
+
+
+class AtReturnsAFloat(dt.Reference):
+    def at(self, t_s):
+        return 1.0
+
+
+def test_callbacks_returning_the_wrong_type_name_the_method_and_the_type(qdrone2):
+    ref = dt.SetpointReference([0.0, 0.0, 1.0])
+    with pytest.raises(TypeError, match=r"calculate_u result: expected .*, got a str"):
+        dt.ClosedLoop(start_hovering(qdrone2), ReturnsText(qdrone2), ref, 100.0).step()
+    with pytest.raises(TypeError, match=r"ControllerBase\.name\(\) returned .*int.*expected a str"):
+        dt.ClosedLoop(start_hovering(qdrone2), NamesItselfWithANumber(qdrone2), ref, 100.0).step()
+    with pytest.raises(TypeError, match=r"Reference\.at\(\) returned .*float.*ReferencePoint"):
+        dt.ClosedLoop(start_hovering(qdrone2), HoverSpeeds(qdrone2), AtReturnsAFloat(), 100.0).step()

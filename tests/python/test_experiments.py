@@ -90,3 +90,23 @@ def test_wind_sweep_changes_the_outcome(tmp_path):
         e.wind_m_s = [wind, 0.0, 0.0]
         finals.append(dt.run_experiment(e, str(tmp_path / f"w{wind}")).closed_loop.rmse)
     assert not np.array_equal(finals[0], finals[1])
+
+
+def test_an_earlier_run_is_kept_unless_overwrite(tmp_path):
+    out = str(tmp_path / "run")
+    first = dt.run_experiment(short(PULSE, 0.5), out)
+    before = open(first.log_path, "rb").read()
+    with pytest.raises(ValueError, match=r"log.csv: exists \(an earlier run\?\).*overwrite=True"):
+        dt.run_experiment(short(PULSE, 0.2), out)
+    assert open(first.log_path, "rb").read() == before  # untouched by the refused run
+    again = dt.run_experiment(short(PULSE, 0.2), out, overwrite=True)
+    assert again.steps == 200
+    assert not [f for f in os.listdir(out) if "partial" in f]
+
+
+def test_an_experiment_without_a_name_is_refused(tmp_path):
+    e = short(PULSE, 0.1)
+    e.name = ""
+    with pytest.raises(ValueError, match="name"):
+        dt.run_experiment(e, str(tmp_path / "noname"))
+    assert not (tmp_path / "noname" / "log.csv").exists()

@@ -2,12 +2,18 @@
 
 import copy
 import gc
+import os
+import signal
+import subprocess
+import sys
 import threading
+import time
 
 import numpy as np
 import pytest
 
 import dronetwin as dt
+from conftest import source_path
 
 G = 9.81
 
@@ -212,3 +218,107 @@ def test_help_is_useful():
     doc = dt.Simulator.__doc__
     assert "deterministic" in doc and "view" in doc
     assert dt.Simulator.step.__doc__ and dt.ClosedLoop.record.__doc__
+
+
+class _Parked(dt.ControllerBase):
+    """Hovers; on its first call it says so and waits until released, holding its loop mid-run."""
+
+    def __init__(self, model):
+        super().__init__(model)
+        self.inside, self.release = threading.Event(), threading.Event()
+
+    def calculate_actuator_cmd(self, inp):
+        if not self.inside.is_set():
+            self.inside.set()
+            assert self.release.wait(60.0)
+        return self.model.hover_speeds_rad_s()
+
+
+def _parked_run(model):
+    sim = hovering(model)
+    ctrl = _Parked(model)
+    loop = dt.ClosedLoop(sim, ctrl, dt.SetpointReference([0.0, 0.0, 1.0]), 100.0)
+    return sim, ctrl, loop
+
+
+def test_a_simulator_in_use_by_another_thread_says_so_and_is_not_corrupted(qdrone2):
+    # The reference: the same run with nobody interfering.
+    sim_ref, ctrl_ref, loop_ref = _parked_run(qdrone2)
+    ctrl_ref.release.set()
+    assert loop_ref.run(0.2).ok
+
+    sim, ctrl, loop = _parked_run(qdrone2)
+    results = []
+    worker = threading.Thread(target=lambda: results.append(loop.run(0.2)))
+    worker.start()
+    try:
+        assert ctrl.inside.wait(60.0)
+        # The worker's loop holds the simulator and the controller: every use from here is refused.
+        with pytest.raises(RuntimeError, match="in use by another thread"):
+            sim.step()
+        with pytest.raises(RuntimeError, match="in use by another thread"):
+            sim.step(100)
+        with pytest.raises(RuntimeError, match="in use by another thread"):
+            sim.reset(dt.Simulator.hover_state([0.0, 0.0, 3.0]))
+        with pytest.raises(RuntimeError, match="in use by another thread"):
+            loop.run(0.1)
+    finally:
+        ctrl.release.set()
+        worker.join(60.0)
+    assert results and results[0].ok
+    # Nothing the refused calls tried reached the run: bitwise the undisturbed flight.
+    np.testing.assert_array_equal(sim.state, sim_ref.state)
+    assert sim.time_s == sim_ref.time_s
+    # Free again once the loop is done.
+    assert sim.step().ok
+
+
+def test_step_n_can_be_interrupted(tmp_path):
+    # Ctrl-C (SIGINT) reaches a long step(n): it raises KeyboardInterrupt within a chunk of steps.
+    script = tmp_path / "long_step.py"
+    script.write_text(
+        "import sys, dronetwin as dt\n"
+        f"model = dt.load_model({source_path('models', 'qdrone2.yaml')!r})\n"
+        "sim = dt.Simulator(model, dt.SimConfig())\n"
+        "sim.reset(dt.Simulator.hover_state([0, 0, 1]), model.hover_speeds_rad_s())\n"
+        "print('stepping', flush=True)\n"
+        "try:\n"
+        "    sim.step(10**11)\n"  # ~8 hours of wall time if never interrupted
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted at', sim.time_s, flush=True)\n"
+        "    sys.exit(7)\n")
+    child = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True,
+                             env=dict(os.environ))
+    try:
+        assert child.stdout.readline().strip() == "stepping"
+        time.sleep(0.5)
+        child.send_signal(signal.SIGINT)
+        out, _ = child.communicate(timeout=120)
+    finally:
+        if child.poll() is None:
+            child.kill()
+    assert child.returncode == 7, out
+    assert out.startswith("interrupted at")
+    assert 0.0 < float(out.split()[-1]) < 1e7
+
+
+def test_hover_state_refuses_non_finite_values():
+    with pytest.raises(ValueError, match="hover_state: position.*finite"):
+        dt.Simulator.hover_state([float("nan"), 0.0, 1.0])
+    with pytest.raises(ValueError, match="yaw"):
+        dt.Simulator.hover_state([0.0, 0.0, 1.0], float("inf"))
+
+
+def test_a_zero_quaternion_written_through_the_view_is_refused_at_the_next_step(qdrone2):
+    sim = hovering(qdrone2)
+    before = sim.state.copy()
+    sim.state[6:10] = 0.0
+    result = sim.step()
+    assert result.status == dt.StepStatus.INVALID_STATE
+    assert result.steps_taken == 0
+    assert "quaternion" in sim.failure_message
+    assert sim.time_s == 0.0
+    with pytest.raises(RuntimeError, match="reset"):
+        sim.step()
+    sim.reset(before)
+    assert sim.step().ok
