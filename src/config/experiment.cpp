@@ -384,6 +384,14 @@ std::string resolve_file(const Reader& rd, const YAML::Node& node, const std::st
     if (fs::is_regular_file(c, ec)) return c.lexically_normal().string();
     tried += (tried.empty() ? "'" : " and '") + c.lexically_normal().string() + "'";
   }
+  // A folder where a file belongs is a different mistake from a typo: say which.
+  for (const fs::path& c : candidates) {
+    std::error_code ec;
+    if (fs::is_directory(c, ec))
+      rd.fail(node, path,
+              what + " file '" + given_text + "' is a directory ('" +
+                  c.lexically_normal().string() + "'); expected a " + what + " YAML file");
+  }
   rd.fail(node, path, what + " file '" + given_text + "' not found (looked for " + tried + ")");
 }
 

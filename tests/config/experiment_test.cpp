@@ -601,6 +601,9 @@ const std::vector<BadCase> kBadCases = {
     {"control_rate_not_dividing.yaml",
      {"input.control_rate_hz: expected a rate that divides the physics rate 1000 Hz",
       "got 300 Hz"}},
+    {"controller_is_a_directory.yaml",
+     {"input.controller: controller file '../../../config/controllers' is a directory",
+      "expected a controller YAML file", "line 7"}},
     {"control_rate_tiny.yaml",
      {"input.control_rate_hz: expected a rate that divides the physics rate", "got 1e-300 Hz"}},
     {"disturbance_key_typo.yaml",
@@ -683,7 +686,7 @@ TEST(BadExperimentCorpus, CorpusIsFullyCovered) {
   std::set<std::string> covered;
   for (const BadCase& c : kBadCases) covered.insert(c.file);
   EXPECT_EQ(files, covered);
-  EXPECT_EQ(files.size(), 36u);
+  EXPECT_EQ(files.size(), 37u);
   EXPECT_GE(files.size(), 10u);
 }
 
