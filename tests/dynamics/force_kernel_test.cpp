@@ -298,5 +298,46 @@ TEST(ForceKernelScalars, EachLaneOfAPackIsItsOwnVehicle) {
   }
 }
 
+TEST(ForceKernelScalars, AFloatPackEqualsTheFloatKernelLaneByLane) {
+  // The single-precision batch instantiates the kernel on float packs: each lane is the float
+  // kernel on that lane's state (same operations in the same order; only a fused multiply-add
+  // the compiler may form differently tells them apart, hence a few float ulps).
+  const auto model = test::load_model("tilted_hexarotor");
+  constexpr int W = 8;
+  using P = Pack<float, W>;
+  const ForceKernel<P> kp(model->cast<P>(), ForceTerms{});
+  const ForceKernel<float> kf(model->cast<float>(), ForceTerms{});
+  Random rng(31);
+  std::array<StateVectorT<float>, W> x;
+  std::array<std::array<float, kMaxRotors>, W> w{};
+  StateVectorT<P> xp;
+  std::array<P, kMaxRotors> wp{};
+  for (int l = 0; l < W; ++l) {
+    const auto k = static_cast<std::size_t>(l);
+    x[k] = test::random_state(rng, 0.02, 0.5).cast<float>();
+    const RotorVector speeds = random_speeds(*model, rng);
+    for (int i = 0; i < model->num_rotors(); ++i)
+      w[k][static_cast<std::size_t>(i)] = static_cast<float>(speeds[i]);
+  }
+  for (int i = 0; i < kStateSize; ++i)
+    xp[i] = pack_from<P>([&](int l) { return x[static_cast<std::size_t>(l)][i]; });
+  for (int i = 0; i < model->num_rotors(); ++i)
+    wp[static_cast<std::size_t>(i)] = pack_from<P>(
+        [&](int l) { return w[static_cast<std::size_t>(l)][static_cast<std::size_t>(i)]; });
+  const Vector3<float> wind(0.5f, -0.2f, 0.0f), g(0.0f, 0.0f, -9.81f);
+  HeldRotorTerms<P> hp;
+  kp.prepare(wp, hp);
+  const StateVectorT<P> dp = kp.derivative(hp, xp, wind, g);
+  for (int l = 0; l < W; ++l) {
+    const auto k = static_cast<std::size_t>(l);
+    HeldRotorTerms<float> hf;
+    kf.prepare(w[k], hf);
+    const StateVectorT<float> d = kf.derivative(hf, x[k], wind, g);
+    for (int i = 0; i < kStateSize; ++i)
+      EXPECT_NEAR(lane(dp[i], l), d[i], 1e-5f * (1.0f + std::abs(d[i])))
+          << "lane " << l << " " << i;
+  }
+}
+
 }  // namespace
 }  // namespace dronetwin

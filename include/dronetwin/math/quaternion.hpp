@@ -9,6 +9,7 @@
 
 #include <cmath>
 
+#include "dronetwin/core/scalar.hpp"
 #include "dronetwin/core/types.hpp"
 
 namespace dronetwin::math {
@@ -42,10 +43,12 @@ Vector4<T> multiply(const Vector4<T>& a, const Vector4<T>& b) {
 template <class T, class Q, class W>
 DRONETWIN_HOT_INLINE Vector4<T> derivative(const Q& q, const W& w_B) {
   Vector4<T> d;
-  d[0] = T(0.5) * (-q[1] * w_B[0] - q[2] * w_B[1] - q[3] * w_B[2]);
-  d[1] = T(0.5) * (q[0] * w_B[0] + q[2] * w_B[2] - q[3] * w_B[1]);
-  d[2] = T(0.5) * (q[0] * w_B[1] - q[1] * w_B[2] + q[3] * w_B[0]);
-  d[3] = T(0.5) * (q[0] * w_B[2] + q[1] * w_B[1] - q[2] * w_B[0]);
+  // One half in T's own machine number: a float pack cannot be built from a double.
+  const T half = scalar::from_value<T>(0.5);
+  d[0] = half * (-q[1] * w_B[0] - q[2] * w_B[1] - q[3] * w_B[2]);
+  d[1] = half * (q[0] * w_B[0] + q[2] * w_B[2] - q[3] * w_B[1]);
+  d[2] = half * (q[0] * w_B[1] - q[1] * w_B[2] + q[3] * w_B[0]);
+  d[3] = half * (q[0] * w_B[2] + q[1] * w_B[1] - q[2] * w_B[0]);
   return d;
 }
 
