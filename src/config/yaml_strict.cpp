@@ -153,6 +153,59 @@ template bool parse_integer(std::string_view, unsigned&);
 template bool parse_integer(std::string_view, unsigned long&);
 template bool parse_integer(std::string_view, unsigned long long&);
 
+void require_utf8(std::string_view text, const std::string& source, std::string_view format) {
+  std::size_t line = 1, column = 1;
+  for (std::size_t i = 0; i < text.size();) {
+    const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(text[k]); };
+    const unsigned char b = byte(i);
+    // Sequence length and the range of its second byte (RFC 3629, table 3-7 of Unicode).
+    std::size_t n = 1;
+    unsigned char lo = 0x80, hi = 0xBF;
+    if (b < 0x80) {
+      n = 1;
+    } else if (b >= 0xC2 && b <= 0xDF) {
+      n = 2;
+    } else if (b >= 0xE0 && b <= 0xEF) {
+      n = 3;
+      if (b == 0xE0) lo = 0xA0;  // no overlong forms
+      if (b == 0xED) hi = 0x9F;  // no surrogates
+    } else if (b >= 0xF0 && b <= 0xF4) {
+      n = 4;
+      if (b == 0xF0) lo = 0x90;  // no overlong forms
+      if (b == 0xF4) hi = 0x8F;  // nothing past U+10FFFF
+    } else {
+      n = 0;  // a continuation byte on its own, or a byte UTF-8 never uses
+    }
+    std::size_t bad = n == 0 ? i : text.size();  // the offending byte, if any
+    for (std::size_t k = 1; bad == text.size() && k < n; ++k) {
+      if (i + k == text.size()) {
+        bad = i;  // cut off by the end of the text
+        break;
+      }
+      const unsigned char c = byte(i + k);
+      if (!(k == 1 ? (c >= lo && c <= hi) : (c >= 0x80 && c <= 0xBF))) bad = i + k;
+    }
+    if (bad != text.size()) {
+      static constexpr char kHex[] = "0123456789ABCDEF";
+      const unsigned char c = byte(bad);
+      throw InvalidArgument(source + ": line " + std::to_string(line) + ", column " +
+                            std::to_string(column) + ": expected UTF-8 text (as " +
+                            std::string(format) + " is), got byte 0x" + kHex[c >> 4] +
+                            kHex[c & 0xF] +
+                            (n == 0     ? ""
+                             : bad == i ? " (a character cut off at the end)"
+                                        : " inside a multi-byte character"));
+    }
+    if (b == '\n') {
+      ++line;
+      column = 1;
+    } else {
+      ++column;
+    }
+    i += n;
+  }
+}
+
 // ---- files ------------------------------------------------------------------------------------
 
 // ---- reader -----------------------------------------------------------------------------------
@@ -174,6 +227,7 @@ void Reader::fail(const std::string& path, const std::string& message) const {
 }
 
 YAML::Node Reader::parse(const std::string& yaml_text, const std::string& expected) const {
+  require_utf8(yaml_text, source_, "YAML");
   std::vector<YAML::Node> documents;
   try {
     documents = YAML::LoadAll(yaml_text);

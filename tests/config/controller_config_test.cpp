@@ -311,5 +311,18 @@ TEST(BadControllerCorpus, CorpusIsFullyCovered) {
   EXPECT_EQ(files.size(), 29u);
 }
 
+TEST(ControllerConfig, TheFuzzersHangingInputIsRefusedAsNotUtf8) {
+  // An input the controller_config fuzzer found: a byte 0x9E inside a flow sequence made
+  // yaml-cpp 0.7 loop allocating nodes until libFuzzer's timeout (1.2 GB at 10 s).
+  const std::string path = test::source_path(
+      "tests/fuzz/corpus/controller_config/"
+      "finding_timeout_invalid_utf8_in_flow_sequence.yaml");
+  const std::string message = error_of([&] { (void)load_controller_config(path); });
+  EXPECT_NE(message.find(path + ": line 4, column 28: expected UTF-8 text (as YAML is), got byte "
+                                "0x9E"),
+            std::string::npos)
+      << message;
+}
+
 }  // namespace
 }  // namespace dronetwin
