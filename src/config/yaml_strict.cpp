@@ -1,6 +1,9 @@
 // Strict YAML reading shared by the loaders of src/io (see yaml_strict.hpp).
 #include "yaml_strict.hpp"
 
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/parser.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
@@ -226,21 +229,73 @@ void Reader::fail(const std::string& path, const std::string& message) const {
   fail(YAML::Node(YAML::NodeType::Undefined), path, message);
 }
 
+namespace {
+
+/// Where the documents of a YAML stream start, and nothing else: the first pass of
+/// Reader::parse() counts them with it, building no nodes.
+class DocumentStarts : public YAML::EventHandler {
+ public:
+  void OnDocumentStart(const YAML::Mark& mark) override {
+    previous = last;
+    last = mark;
+    ++count;
+  }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+
+  std::size_t count = 0;
+  YAML::Mark previous, last;
+};
+
+}  // namespace
+
 YAML::Node Reader::parse(const std::string& yaml_text, const std::string& expected) const {
   require_utf8(yaml_text, source_, "YAML");
-  std::vector<YAML::Node> documents;
+  const auto syntax_error = [&](const YAML::Mark& mark, const std::string& message) {
+    throw InvalidArgument(source_ + ": line " + std::to_string(mark.line + 1) + ", column " +
+                          std::to_string(mark.column + 1) + ": YAML syntax error: " + message);
+  };
+  // Two passes instead of YAML::LoadAll: yaml-cpp 0.7 never consumes a token no rule takes (a ','
+  // or ']' outside a flow collection), and LoadAll then adds empty documents at that token
+  // without end, allocating until the machine runs out of memory (found by the fuzzers). The
+  // first pass counts documents and stops at one that starts where the previous one did.
+  YAML::Node first;
   try {
-    documents = YAML::LoadAll(yaml_text);
+    std::istringstream in(yaml_text);
+    YAML::Parser parser(in);
+    DocumentStarts starts;
+    YAML::Mark second;
+    while (parser.HandleNextDocument(starts)) {
+      if (starts.count >= 2 && starts.last.pos == starts.previous.pos) {
+        const auto at = static_cast<std::size_t>(starts.last.pos);
+        syntax_error(starts.last, at < yaml_text.size()
+                                      ? "unexpected '" + yaml_text.substr(at, 1) + "'"
+                                      : std::string("unexpected end of the text"));
+      }
+      if (starts.count == 2) second = starts.last;
+      if (starts.count == 3) break;  // enough to tell a second document from a stuck parser
+    }
+    if (starts.count >= 2) {
+      fail("", "expected one YAML document, got 2 or more (the second starts at line " +
+                   std::to_string(second.line + 1) + ")");
+    }
+    if (starts.count == 0) fail("", "empty document; expected " + expected);
+    first = YAML::Load(yaml_text);
   } catch (const YAML::ParserException& e) {
-    throw InvalidArgument(source_ + ": line " + std::to_string(e.mark.line + 1) + ", column " +
-                          std::to_string(e.mark.column + 1) + ": YAML syntax error: " + e.msg);
+    syntax_error(e.mark, e.msg);
   } catch (const YAML::Exception& e) {
     throw InvalidArgument(source_ + ": cannot parse YAML: " + e.what());
   }
-  if (documents.empty()) fail("", "empty document; expected " + expected);
-  if (documents.size() > 1)
-    fail(documents[1], "", "expected one YAML document, got " + std::to_string(documents.size()));
-  return documents.front();
+  return first;
 }
 
 Map Reader::map(const YAML::Node& node, const std::string& path, NameList allowed,

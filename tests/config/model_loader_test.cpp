@@ -509,5 +509,28 @@ TEST(ModelLoader, TextThatIsNotUtf8IsRefusedWithLineAndColumn) {
   EXPECT_EQ(spec.name, "qdrone2");
 }
 
+TEST(ModelLoader, AStrayCommaOrBracketIsASyntaxErrorNotAHang) {
+  // yaml-cpp 0.7's LoadAll adds empty documents without end at a ',' or ']' outside a flow
+  // collection (found by the model_loader and experiment fuzzers; 1.5 GB after 10 s).
+  const auto message = [](const std::string& yaml) {
+    return error_of([&] { (void)parse_vehicle_spec(yaml, "stray.yaml"); });
+  };
+  EXPECT_NE(message(",\n").find("stray.yaml: line 1, column 1: YAML syntax error: unexpected ','"),
+            std::string::npos)
+      << message(",\n");
+  std::ifstream in(
+      test::source_path("tests/fuzz/corpus/model_loader/finding_timeout_stray_flow_indicator.yaml"),
+      std::ios::binary);
+  const std::string finding =
+      message(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()));
+  EXPECT_NE(finding.find("stray.yaml: line "), std::string::npos) << finding;
+  EXPECT_NE(finding.find("YAML syntax error"), std::string::npos) << finding;
+  // Two documents are still refused as such.
+  EXPECT_NE(message("name: a\n---\nname: b\n")
+                .find("expected one YAML document, got 2 or more (the second starts at line 2)"),
+            std::string::npos)
+      << message("name: a\n---\nname: b\n");
+}
+
 }  // namespace
 }  // namespace dronetwin
