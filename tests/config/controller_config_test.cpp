@@ -312,8 +312,9 @@ TEST(BadControllerCorpus, CorpusIsFullyCovered) {
 }
 
 TEST(ControllerConfig, TheFuzzersHangingInputIsRefusedAsNotUtf8) {
-  // An input the controller_config fuzzer found: a byte 0x9E inside a flow sequence made
-  // yaml-cpp 0.7 loop allocating nodes until libFuzzer's timeout (1.2 GB at 10 s).
+  // An input the controller_config fuzzer found: its line 2 starts with ',' after a comment, on
+  // which yaml-cpp 0.7's LoadAll looped allocating (1.2 GB at 10 s). It also holds a byte 0x9E,
+  // and the encoding is checked first.
   const std::string path = test::source_path(
       "tests/fuzz/corpus/controller_config/"
       "finding_timeout_invalid_utf8_in_flow_sequence.yaml");

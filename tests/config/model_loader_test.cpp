@@ -477,8 +477,8 @@ TEST(ModelLoader, LoadVehicleModelNamesTheFileInPhysicalErrors) {
 }
 
 TEST(ModelLoader, TextThatIsNotUtf8IsRefusedWithLineAndColumn) {
-  // yaml-cpp 0.7 loops allocating without end on some malformed UTF-8 inside a flow sequence
-  // (found by the model_loader fuzzer): the loaders check the encoding first.
+  // YAML is UTF-8: a file in another encoding, or a corrupted one, is refused at its first bad
+  // byte (the fuzzers' first inputs held such bytes).
   const auto message = [](const std::string& yaml) {
     return error_of([&] { (void)parse_vehicle_spec(yaml, "enc.yaml"); });
   };
