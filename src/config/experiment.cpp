@@ -630,6 +630,10 @@ std::int64_t Experiment::num_steps() const {
 
 std::int64_t segment_start_step(double start_s, double dt_s) {
   const double k = std::ceil(start_s / dt_s - 1e-9);
+  // A start beyond the int64 range (start_s: 1e300) is a step no run reaches: saturate, since
+  // converting such a k to an integer is undefined behaviour.
+  constexpr double kNever = 9223372036854775807.0;  // 2^63, the first double past INT64_MAX
+  if (!(k < kNever)) return std::numeric_limits<std::int64_t>::max();
   return k > 0.0 ? static_cast<std::int64_t>(k) : 0;
 }
 

@@ -73,6 +73,7 @@ bool is_hash(std::string_view s) {
 namespace {
 // Not Reader::parse: its messages speak of YAML, and a sidecar is JSON.
 YAML::Node load_json(const std::string& json_text, const std::string& source_name) {
+  io_detail::require_utf8(json_text, source_name, "JSON");
   try {
     return YAML::Load(json_text);
   } catch (const YAML::ParserException& e) {

@@ -1,6 +1,9 @@
 // Strict YAML reading shared by the loaders of src/io (see yaml_strict.hpp).
 #include "yaml_strict.hpp"
 
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/parser.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
@@ -153,6 +156,59 @@ template bool parse_integer(std::string_view, unsigned&);
 template bool parse_integer(std::string_view, unsigned long&);
 template bool parse_integer(std::string_view, unsigned long long&);
 
+void require_utf8(std::string_view text, const std::string& source, std::string_view format) {
+  std::size_t line = 1, column = 1;
+  for (std::size_t i = 0; i < text.size();) {
+    const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(text[k]); };
+    const unsigned char b = byte(i);
+    // Sequence length and the range of its second byte (RFC 3629, table 3-7 of Unicode).
+    std::size_t n = 1;
+    unsigned char lo = 0x80, hi = 0xBF;
+    if (b < 0x80) {
+      n = 1;
+    } else if (b >= 0xC2 && b <= 0xDF) {
+      n = 2;
+    } else if (b >= 0xE0 && b <= 0xEF) {
+      n = 3;
+      if (b == 0xE0) lo = 0xA0;  // no overlong forms
+      if (b == 0xED) hi = 0x9F;  // no surrogates
+    } else if (b >= 0xF0 && b <= 0xF4) {
+      n = 4;
+      if (b == 0xF0) lo = 0x90;  // no overlong forms
+      if (b == 0xF4) hi = 0x8F;  // nothing past U+10FFFF
+    } else {
+      n = 0;  // a continuation byte on its own, or a byte UTF-8 never uses
+    }
+    std::size_t bad = n == 0 ? i : text.size();  // the offending byte, if any
+    for (std::size_t k = 1; bad == text.size() && k < n; ++k) {
+      if (i + k == text.size()) {
+        bad = i;  // cut off by the end of the text
+        break;
+      }
+      const unsigned char c = byte(i + k);
+      if (!(k == 1 ? (c >= lo && c <= hi) : (c >= 0x80 && c <= 0xBF))) bad = i + k;
+    }
+    if (bad != text.size()) {
+      static constexpr char kHex[] = "0123456789ABCDEF";
+      const unsigned char c = byte(bad);
+      throw InvalidArgument(source + ": line " + std::to_string(line) + ", column " +
+                            std::to_string(column) + ": expected UTF-8 text (as " +
+                            std::string(format) + " is), got byte 0x" + kHex[c >> 4] +
+                            kHex[c & 0xF] +
+                            (n == 0     ? ""
+                             : bad == i ? " (a character cut off at the end)"
+                                        : " inside a multi-byte character"));
+    }
+    if (b == '\n') {
+      ++line;
+      column = 1;
+    } else {
+      ++column;
+    }
+    i += n;
+  }
+}
+
 // ---- files ------------------------------------------------------------------------------------
 
 // ---- reader -----------------------------------------------------------------------------------
@@ -173,20 +229,73 @@ void Reader::fail(const std::string& path, const std::string& message) const {
   fail(YAML::Node(YAML::NodeType::Undefined), path, message);
 }
 
+namespace {
+
+/// Where the documents of a YAML stream start, and nothing else: the first pass of
+/// Reader::parse() counts them with it, building no nodes.
+class DocumentStarts : public YAML::EventHandler {
+ public:
+  void OnDocumentStart(const YAML::Mark& mark) override {
+    previous = last;
+    last = mark;
+    ++count;
+  }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+
+  std::size_t count = 0;
+  YAML::Mark previous, last;
+};
+
+}  // namespace
+
 YAML::Node Reader::parse(const std::string& yaml_text, const std::string& expected) const {
-  std::vector<YAML::Node> documents;
+  require_utf8(yaml_text, source_, "YAML");
+  const auto syntax_error = [&](const YAML::Mark& mark, const std::string& message) {
+    throw InvalidArgument(source_ + ": line " + std::to_string(mark.line + 1) + ", column " +
+                          std::to_string(mark.column + 1) + ": YAML syntax error: " + message);
+  };
+  // Two passes instead of YAML::LoadAll: yaml-cpp 0.7 never consumes a token no rule takes (a ','
+  // or ']' outside a flow collection), and LoadAll then adds empty documents at that token
+  // without end, allocating until the machine runs out of memory (found by the fuzzers). The
+  // first pass counts documents and stops at one that starts where the previous one did.
+  YAML::Node first;
   try {
-    documents = YAML::LoadAll(yaml_text);
+    std::istringstream in(yaml_text);
+    YAML::Parser parser(in);
+    DocumentStarts starts;
+    YAML::Mark second;
+    while (parser.HandleNextDocument(starts)) {
+      if (starts.count >= 2 && starts.last.pos == starts.previous.pos) {
+        const auto at = static_cast<std::size_t>(starts.last.pos);
+        syntax_error(starts.last, at < yaml_text.size()
+                                      ? "unexpected '" + yaml_text.substr(at, 1) + "'"
+                                      : std::string("unexpected end of the text"));
+      }
+      if (starts.count == 2) second = starts.last;
+      if (starts.count == 3) break;  // enough to tell a second document from a stuck parser
+    }
+    if (starts.count >= 2) {
+      fail("", "expected one YAML document, got 2 or more (the second starts at line " +
+                   std::to_string(second.line + 1) + ")");
+    }
+    if (starts.count == 0) fail("", "empty document; expected " + expected);
+    first = YAML::Load(yaml_text);
   } catch (const YAML::ParserException& e) {
-    throw InvalidArgument(source_ + ": line " + std::to_string(e.mark.line + 1) + ", column " +
-                          std::to_string(e.mark.column + 1) + ": YAML syntax error: " + e.msg);
+    syntax_error(e.mark, e.msg);
   } catch (const YAML::Exception& e) {
     throw InvalidArgument(source_ + ": cannot parse YAML: " + e.what());
   }
-  if (documents.empty()) fail("", "empty document; expected " + expected);
-  if (documents.size() > 1)
-    fail(documents[1], "", "expected one YAML document, got " + std::to_string(documents.size()));
-  return documents.front();
+  return first;
 }
 
 Map Reader::map(const YAML::Node& node, const std::string& path, NameList allowed,

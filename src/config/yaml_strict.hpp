@@ -73,6 +73,12 @@ bool parse_number(std::string_view text, double& out);
 template <class Int>
 bool parse_integer(std::string_view text, Int& out);
 
+/// Throws InvalidArgument "<source>: line L, column C: expected UTF-8 text (as <format> is), got
+/// byte 0xNN" at the first byte of `text` that does not belong to a well-formed UTF-8 sequence
+/// (an overlong form, a surrogate or a code point past U+10FFFF included). Checked before
+/// yaml-cpp sees a text, so that a file in another encoding, or a corrupted one, is named as such.
+void require_utf8(std::string_view text, const std::string& source, std::string_view format);
+
 // ---- files ------------------------------------------------------------------------------------
 
 /// The whole file. `what` names it in errors: "<path>: cannot open <what> (<reason>)".

@@ -10,9 +10,9 @@
 
 namespace dronetwin {
 
-template <>
-double RotorParamsTpl<double>::speed_for_thrust(double thrust_N) const {
-  const double a = thrust_coefficients[0], b = thrust_coefficients[1], c = thrust_coefficients[2];
+double rotor_speed_for_thrust(const std::array<double, 3>& coefficients, double min_speed_rad_s,
+                              double max_speed_rad_s, double thrust_N) {
+  const double a = coefficients[0], b = coefficients[1], c = coefficients[2];
   double w;
   if (a > 0.0) {
     // Positive root of a w^2 + b w + (c - T) = 0, written to avoid cancellation when b > 0.

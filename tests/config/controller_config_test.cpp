@@ -311,5 +311,19 @@ TEST(BadControllerCorpus, CorpusIsFullyCovered) {
   EXPECT_EQ(files.size(), 29u);
 }
 
+TEST(ControllerConfig, TheFuzzersHangingInputIsRefusedAsNotUtf8) {
+  // An input the controller_config fuzzer found: its line 2 starts with ',' after a comment, on
+  // which yaml-cpp 0.7's LoadAll looped allocating (1.2 GB at 10 s). It also holds a byte 0x9E,
+  // and the encoding is checked first.
+  const std::string path = test::source_path(
+      "tests/fuzz/corpus/controller_config/"
+      "finding_timeout_invalid_utf8_in_flow_sequence.yaml");
+  const std::string message = error_of([&] { (void)load_controller_config(path); });
+  EXPECT_NE(message.find(path + ": line 4, column 28: expected UTF-8 text (as YAML is), got byte "
+                                "0x9E"),
+            std::string::npos)
+      << message;
+}
+
 }  // namespace
 }  // namespace dronetwin

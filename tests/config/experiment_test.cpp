@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <set>
 #include <sstream>
@@ -258,6 +259,34 @@ TEST(Experiment, StepCountsRoundToTheNearestWholeStep) {
   EXPECT_EQ(segment_start_step(0.5, 0.001), 500);
   EXPECT_EQ(segment_start_step(5.26, 0.001), 5260);
   EXPECT_EQ(segment_start_step(0.0005, 0.001), 1);
+}
+
+TEST(Experiment, ASegmentStartBeyondEveryRunNeverTakesEffect) {
+  // 1e300 s / 1 ms does not fit an int64 step count (converting it was undefined behaviour).
+  constexpr std::int64_t kNever = std::numeric_limits<std::int64_t>::max();
+  EXPECT_EQ(segment_start_step(1e300, 0.001), kNever);
+  EXPECT_EQ(segment_start_step(9.3e15, 0.001), kNever);
+  EXPECT_GT(segment_start_step(9.2e15, 0.001), 9199999999000000000);
+  EXPECT_LT(segment_start_step(9.2e15, 0.001), kNever);
+  const Experiment e = parse_experiment(
+      minimal("",
+              "input: {type: piecewise_rotor_speeds, segments: [{start_s: 0, "
+              "rotor_speeds_rad_s: hover}, {start_s: 1e300, rotor_speeds_rad_s: stopped}]}\n"),
+      "late.yaml");
+  EXPECT_NO_THROW(validate(e));
+  // Two such segments would land on one step: the earlier one is named.
+  const std::string message = error_of([] {
+    (void)parse_experiment(
+        minimal("",
+                "input: {type: piecewise_rotor_speeds, segments: [{start_s: 0, "
+                "rotor_speeds_rad_s: hover}, {start_s: 1e299, rotor_speeds_rad_s: hover}, "
+                "{start_s: 1e300, rotor_speeds_rad_s: stopped}]}\n"),
+        "late2.yaml");
+  });
+  EXPECT_NE(message.find("late2.yaml: input.segments[2].start_s: "), std::string::npos) << message;
+  EXPECT_NE(message.find("takes effect at the same physics step (9223372036854775807"),
+            std::string::npos)
+      << message;
 }
 
 TEST(Experiment, ValidateCatchesOverriddenFields) {

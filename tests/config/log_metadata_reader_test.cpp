@@ -400,5 +400,14 @@ TEST_F(LogMetadataTest, SidecarFormatOfARunLogAndOfBadFiles) {
   EXPECT_NE(e.find("JSON syntax error"), std::string::npos) << e;
 }
 
+TEST(LogMetadataReader, ASidecarThatIsNotUtf8IsRefusedWithLineAndColumn) {
+  const std::string message = error_of(
+      [] { (void)parse_log_metadata("{\n  \"format\": \"dronetwin \xFF\"\n}\n", "enc.json"); });
+  EXPECT_NE(message.find("enc.json: line 2, column 24: expected UTF-8 text (as JSON is), got "
+                         "byte 0xFF"),
+            std::string::npos)
+      << message;
+}
+
 }  // namespace
 }  // namespace dronetwin

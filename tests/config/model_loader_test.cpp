@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <set>
 #include <string>
@@ -473,6 +474,62 @@ TEST(ModelLoader, LoadVehicleModelNamesTheFileInPhysicalErrors) {
   // ... and the model names the file, not just the vehicle.
   const std::string message = error_of([&] { (void)load_vehicle_model(tmp.path()); });
   EXPECT_EQ(message.rfind(tmp.path() + ": mass_kg: expected > 0, got -3", 0), 0u) << message;
+}
+
+TEST(ModelLoader, TextThatIsNotUtf8IsRefusedWithLineAndColumn) {
+  // YAML is UTF-8: a file in another encoding, or a corrupted one, is refused at its first bad
+  // byte (the fuzzers' first inputs held such bytes).
+  const auto message = [](const std::string& yaml) {
+    return error_of([&] { (void)parse_vehicle_spec(yaml, "enc.yaml"); });
+  };
+  EXPECT_NE(
+      message("name: x\nmass_kg: [1.0\x9e"
+              "2]\n")
+          .find("enc.yaml: line 2, column 14: expected UTF-8 text (as YAML is), got byte 0x9E"),
+      std::string::npos);
+  EXPECT_NE(message("# \xC0\xAF overlong\n")
+                .find("line 1, column 3: expected UTF-8 text (as YAML is), got byte 0xC0"),
+            std::string::npos);
+  EXPECT_NE(message("# \xED\xA0\x80 surrogate\n")
+                .find("line 1, column 3: expected UTF-8 text (as YAML is), got byte 0xA0 inside a "
+                      "multi-byte character"),
+            std::string::npos);
+  EXPECT_NE(message("# \xF4\x90\x80\x80 past U+10FFFF\n")
+                .find("got byte 0x90 inside a multi-byte character"),
+            std::string::npos);
+  EXPECT_NE(message("# arrow \xE2\x86")
+                .find("line 1, column 9: expected UTF-8 text (as YAML is), got byte 0xE2 (a "
+                      "character cut off at the end)"),
+            std::string::npos);
+  // Well-formed UTF-8 of every length is fine.
+  std::ifstream in(model_path("qdrone2.yaml"), std::ios::binary);
+  const std::string qdrone2((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const VehicleSpec spec =
+      parse_vehicle_spec("# \xC3\xA9 \xE2\x86\x92 \xF0\x9F\x9A\x81 \n" + qdrone2, "utf8.yaml");
+  EXPECT_EQ(spec.name, "qdrone2");
+}
+
+TEST(ModelLoader, AStrayCommaOrBracketIsASyntaxErrorNotAHang) {
+  // yaml-cpp 0.7's LoadAll adds empty documents without end at a ',' or ']' outside a flow
+  // collection (found by the model_loader and experiment fuzzers; 1.5 GB after 10 s).
+  const auto message = [](const std::string& yaml) {
+    return error_of([&] { (void)parse_vehicle_spec(yaml, "stray.yaml"); });
+  };
+  EXPECT_NE(message(",\n").find("stray.yaml: line 1, column 1: YAML syntax error: unexpected ','"),
+            std::string::npos)
+      << message(",\n");
+  std::ifstream in(
+      test::source_path("tests/fuzz/corpus/model_loader/finding_timeout_stray_flow_indicator.yaml"),
+      std::ios::binary);
+  const std::string finding =
+      message(std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()));
+  EXPECT_NE(finding.find("stray.yaml: line "), std::string::npos) << finding;
+  EXPECT_NE(finding.find("YAML syntax error"), std::string::npos) << finding;
+  // Two documents are still refused as such.
+  EXPECT_NE(message("name: a\n---\nname: b\n")
+                .find("expected one YAML document, got 2 or more (the second starts at line 2)"),
+            std::string::npos)
+      << message("name: a\n---\nname: b\n");
 }
 
 }  // namespace

@@ -197,7 +197,8 @@ void check_against_model(const Experiment& experiment, const VehicleModel& model
 /// after --duration.
 void validate(const Experiment& experiment);
 
-/// First physics step k (time k dt) at which a segment starting at `start_s` is in effect.
+/// First physics step k (time k dt) at which a segment starting at `start_s` is in effect;
+/// INT64_MAX (never) for a start beyond the int64 range of steps.
 std::int64_t segment_start_step(double start_s, double dt_s);
 
 }  // namespace dronetwin

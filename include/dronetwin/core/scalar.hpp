@@ -104,16 +104,22 @@ inline S exp(const S& x) {
 /// The machine number inside a scalar: S itself for double and float, T for a ceres::Jet<T, N>
 /// (its `Scalar`) and for a pack of T (its `value_type`). Constants that no fit differentiates and
 /// every lane shares (rotor positions and axes) are stored in this type.
-template <class S, class = void>
+/// (Constrained specializations: clang takes two void_t specializations for one, CWG 1980.)
+template <class S>
 struct value_type {
   using type = S;
 };
 template <class S>
-struct value_type<S, std::void_t<typename S::Scalar>> {
+requires requires { typename S::Scalar; }
+struct value_type<S> {
   using type = typename S::Scalar;
 };
 template <class S>
-struct value_type<S, std::void_t<typename S::value_type, typename S::abi_type>> {
+requires requires {
+  typename S::value_type;
+  typename S::abi_type;
+}
+struct value_type<S> {
   using type = typename S::value_type;
 };
 template <class S>

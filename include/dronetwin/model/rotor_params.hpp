@@ -26,6 +26,11 @@ S thrust_polynomial(const std::array<S, 3>& c, const W& w) {
   return (c[0] * w + c[1]) * w + c[2];
 }
 
+/// The speed in [min_speed_rad_s, max_speed_rad_s] at which T(w) = thrust_N for the thrust
+/// polynomial c (RotorParamsTpl<double>::speed_for_thrust).
+double rotor_speed_for_thrust(const std::array<double, 3>& c, double min_speed_rad_s,
+                              double max_speed_rad_s, double thrust_N);
+
 template <class S>
 struct RotorParamsTpl {
   using Scalar = S;
@@ -70,7 +75,11 @@ struct RotorParamsTpl {
   /// Inverse of the thrust polynomial on [min_speed, max_speed]: the speed that gives
   /// `thrust_N`, clamped to the speed limits. Closed form (positive root of the quadratic).
   /// Only for plain double rotors (the allocation and the hover trim use it).
-  double speed_for_thrust(double thrust_N) const requires std::is_same_v<S, double>;
+  double speed_for_thrust(double thrust_N) const requires std::is_same_v<S, double> {
+    // Defined through a free function: clang 16 rejects an explicit specialization of a
+    // constrained member.
+    return rotor_speed_for_thrust(thrust_coefficients, min_speed_rad_s, max_speed_rad_s, thrust_N);
+  }
 
   /// The same rotor with coefficients of scalar S2 (geometry and limits unchanged). From double
   /// only: a Jet's derivatives or a pack's lanes have no single value to carry over.
