@@ -328,8 +328,7 @@ TEST(FitData, UnusableFlightsAndOptionsAreNamed) {
             std::string::npos);
   o.holdout_fraction = 0.2;
   o.window_s = 5.0;  // longer than the 1.6 s fitted
-  EXPECT_NE(error(f.data, o, *model).find("window_s = 5 s is 5000 log intervals, longer than the"),
-            std::string::npos);
+  EXPECT_NE(error(f.data, o, *model).find("log intervals, longer than the"), std::string::npos);
   o.window_s = 0.05;
   EXPECT_NE(
       error(f.data, o, *test::load_model("hexarotor")).find("the log has 4 rotors, the model"),

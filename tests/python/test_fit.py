@@ -34,7 +34,9 @@ def test_fit_recovers_a_changed_vehicle(tmp_path, qdrone2):
     assert r.holdout_after["linear_acceleration_m_s2"] < 0.01 * r.holdout_before["linear_acceleration_m_s2"]
     fitted = dt.VehicleModel(r.fitted_spec)
     assert fitted.num_rotors == 4
-    assert np.asarray(r.correlation).shape == (4, 4)
+    # inertia_xx brings the angular channel and with it 3 free speed-sensor gains (the 4th is
+    # 4 minus their sum): 4 parameters + 3 gains
+    assert np.asarray(r.correlation).shape == (7, 7)
     assert '"estimate"' in r.to_json()
 
 
