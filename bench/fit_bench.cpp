@@ -6,8 +6,17 @@
 // included). Variants: equation error (13 parameters: thrust, inertia, rotor and body drag,
 // yaw moment, motor lag), the same with output error (200 windows of 50 ms), and a 3-parameter
 // equation-error fit.
-// Run: build/release/bench/fit_bench --benchmark_repetitions=3
+//
+// The 1-hour log (issue "Reliability", item 2: a 1-hour log at 1 kHz fitted in < 60 s with
+// <= 300 bytes per log row): the same 60 s flight 60 times over, each repeat after a 10 ms gap
+// (3 600 060 rows at 1 kHz; the fit leaves the 59 gaps out, as it would a real log's), fitted
+// with the default options on 1 and 2 threads. Counters: data_bytes_per_row (FlightData::bytes()
+// / rows) and max_rss_bytes_per_row (the process' peak resident memory after the fit / rows:
+// everything, the log, the fit's scratch, the libraries).
+// Run: build/release/bench/fit_bench --benchmark_repetitions=3 --benchmark_filter=60s
+//      build/release/bench/fit_bench --benchmark_filter=1h
 #include <benchmark/benchmark.h>
+#include <sys/resource.h>
 
 #include <filesystem>
 #include <memory>
@@ -53,32 +62,108 @@ const Data& data() {
   return d;
 }
 
-void fit(benchmark::State& state, const char* params, FitMethod method) {
+// `defaults`: the options as shipped (auto channels, Huber loss, speed-sensor gains with the
+// angular channel); otherwise the options of the fit before the issue "Reliability" (least
+// squares, both channels, no gains), to compare with the earlier numbers.
+void fit(benchmark::State& state, const char* params, FitMethod method, bool defaults) {
   const Data& d = data();
   FitOptions o;
   o.parameters = parse_parameter_list(params);
   o.method = method;
+  if (!defaults) {
+    o.loss = FitLoss::kNone;
+    o.channels = FitChannels::kLinearAngular;
+    o.speed_sensor_gains = SpeedSensorGains::kOff;
+  }
   FitResult r;
   for (auto _ : state) {
     r = fit_model(*d.nominal, d.flight, o);
     benchmark::DoNotOptimize(r.parameters.data());
   }
-  state.counters["rows"] = static_cast<double>(d.flight.t_s.size());
+  state.counters["rows"] = static_cast<double>(d.flight.rows());
   state.counters["parameters"] = static_cast<double>(r.parameters.size());
   state.counters["iterations"] = r.iterations;
 }
 
-const char* kThirteen = "thrust,inertia,rotor_drag,yaw_moment_per_thrust,body_drag,motor";
+// The 60 s flight repeated 60 times, 10 ms apart (see the top of the file).
+const FlightData& hour() {
+  static const FlightData h = [] {
+    const FlightData& f = data().flight;
+    FlightData out("60 x " + f.source(), f.layout());
+    out.reserve(60 * f.rows());
+    const double period = f.t_s(f.rows() - 1) - f.t_s(0) + 0.010;
+    for (int repeat = 0; repeat < 60; ++repeat) {
+      for (std::size_t k = 0; k < f.rows(); ++k) {
+        out.append_row(f.t_s(k) + repeat * period, f.state(k), f.rotor_speeds_rad_s(k),
+                       f.has_rotor_references() ? f.rotor_references_rad_s(k) : nullptr,
+                       f.in_contact(k));
+      }
+    }
+    return out;
+  }();
+  return h;
+}
 
-void BM_Fit60sEquationError13(benchmark::State& s) { fit(s, kThirteen, FitMethod::kEquationError); }
-void BM_Fit60sBoth13(benchmark::State& s) { fit(s, kThirteen, FitMethod::kBoth); }
+void fit_hour(benchmark::State& state, const char* params, FitMethod method, int threads) {
+  const FlightData& h = hour();
+  FitOptions o;
+  o.parameters = parse_parameter_list(params);
+  o.method = method;
+  o.num_threads = threads;
+  FitResult r;
+  for (auto _ : state) {
+    r = fit_model(*data().nominal, h, o);
+    benchmark::DoNotOptimize(r.parameters.data());
+  }
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto rows = static_cast<double>(h.rows());
+  state.counters["rows"] = rows;
+  state.counters["gaps"] = static_cast<double>(r.gaps);
+  state.counters["iterations"] = r.iterations;
+  state.counters["data_bytes_per_row"] = static_cast<double>(h.bytes()) / rows;
+  state.counters["max_rss_bytes_per_row"] = 1024.0 * static_cast<double>(usage.ru_maxrss) / rows;
+}
+
+const char* kThirteen = "thrust,inertia,rotor_drag,yaw_moment_per_thrust,body_drag,motor";
+const char* kThree = "thrust_k1,inertia_zz,body_drag_z";
+
+void BM_Fit60sEquationError13(benchmark::State& s) {
+  fit(s, kThirteen, FitMethod::kEquationError, false);
+}
+void BM_Fit60sBoth13(benchmark::State& s) { fit(s, kThirteen, FitMethod::kBoth, false); }
 void BM_Fit60sEquationError3(benchmark::State& s) {
-  fit(s, "thrust_k1,inertia_zz,body_drag_z", FitMethod::kEquationError);
+  fit(s, kThree, FitMethod::kEquationError, false);
+}
+void BM_Fit60sEquationError13Defaults(benchmark::State& s) {
+  fit(s, kThirteen, FitMethod::kEquationError, true);
+}
+void BM_Fit60sBoth13Defaults(benchmark::State& s) { fit(s, kThirteen, FitMethod::kBoth, true); }
+void BM_Fit60sEquationError3Defaults(benchmark::State& s) {
+  fit(s, kThree, FitMethod::kEquationError, true);
+}
+
+void BM_Fit1hEquationError3Defaults(benchmark::State& s) {
+  fit_hour(s, kThree, FitMethod::kEquationError, 1);
+}
+void BM_Fit1hBoth3Defaults(benchmark::State& s) { fit_hour(s, kThree, FitMethod::kBoth, 1); }
+void BM_Fit1hBoth3Defaults2Threads(benchmark::State& s) {
+  fit_hour(s, kThree, FitMethod::kBoth, 2);
+}
+void BM_Fit1hBoth13Defaults2Threads(benchmark::State& s) {
+  fit_hour(s, kThirteen, FitMethod::kBoth, 2);
 }
 
 BENCHMARK(BM_Fit60sEquationError13)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_Fit60sBoth13)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_Fit60sEquationError3)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_Fit60sEquationError13Defaults)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_Fit60sBoth13Defaults)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_Fit60sEquationError3Defaults)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_Fit1hEquationError3Defaults)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_Fit1hBoth3Defaults)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_Fit1hBoth3Defaults2Threads)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_Fit1hBoth13Defaults2Threads)->Unit(benchmark::kSecond)->Iterations(1);
 
 }  // namespace
 

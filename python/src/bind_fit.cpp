@@ -4,19 +4,21 @@
 #include "bindings.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/identification/fit.hpp"
+#include "dronetwin/identification/flight_data.hpp"
 #include "dronetwin/identification/model_parameters.hpp"
-#include "dronetwin/logging/csv_log.hpp"
 
 namespace dronetwin::python {
 
 namespace {
 
-template <class Vector>
-py::array_t<double> rows_of(const std::vector<Vector>& rows, int width) {
-  py::array_t<double> a({static_cast<py::ssize_t>(rows.size()), static_cast<py::ssize_t>(width)});
+// (rows, width) copy of a per-row quantity of a flight.
+template <class Row>
+py::array_t<double> rows_of(std::size_t rows, int width, Row&& row) {
+  py::array_t<double> a({static_cast<py::ssize_t>(rows), static_cast<py::ssize_t>(width)});
   auto out = a.mutable_unchecked<2>();
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    for (int j = 0; j < width; ++j) out(static_cast<py::ssize_t>(i), j) = rows[i][j];
+  for (std::size_t i = 0; i < rows; ++i) {
+    const auto values = row(i);
+    for (int j = 0; j < width; ++j) out(static_cast<py::ssize_t>(i), j) = values[j];
   }
   return a;
 }
@@ -53,39 +55,54 @@ void bind_fit(py::module_& m) {
                          "A logged flight as the fit sees it (one entry per log row).\n\n"
                          "    flight = dronetwin.read_flight('out/id/log.csv', num_rotors=4)\n"
                          "    flight.state.shape          # (rows, 13): [p, v, q_wxyz, w_B]")
-      .def_readonly("source", &FlightData::source)
-      .def_readonly("num_rotors", &FlightData::num_rotors)
-      .def_readonly("used_measured", &FlightData::used_measured,
-                    "True when the state came from the meas_* columns.")
-      .def_readonly("has_body_rates", &FlightData::has_body_rates,
-                    "False when the log had no wx, wy, wz (then derived from the attitudes).")
+      .def_property_readonly("source", &FlightData::source)
+      .def_property_readonly("num_rotors", &FlightData::num_rotors)
+      .def_property_readonly("used_measured", &FlightData::used_measured,
+                             "True when the state came from the meas_* columns.")
+      .def_property_readonly(
+          "has_body_rates", &FlightData::has_body_rates,
+          "False when the log had no wx, wy, wz (then derived from the attitudes).")
+      .def_property_readonly("has_specific_force", &FlightData::has_specific_force,
+                             "True when the log had acc_x, acc_y, acc_z.")
+      .def_property_readonly("nbytes", &FlightData::bytes,
+                             "Bytes held by the rows (201 per row for a quadrotor with every "
+                             "column).")
       .def_property_readonly(
           "t_s",
           [](const FlightData& d) {
-            return copy_of(Eigen::Map<const Eigen::VectorXd>(
-                d.t_s.data(), static_cast<Eigen::Index>(d.t_s.size())));
+            py::array_t<double> a(static_cast<py::ssize_t>(d.rows()));
+            auto out = a.mutable_unchecked<1>();
+            for (std::size_t k = 0; k < d.rows(); ++k) out(static_cast<py::ssize_t>(k)) = d.t_s(k);
+            return a;
           },
           "Row times, s (a copy).")
       .def_property_readonly(
-          "state", [](const FlightData& d) { return rows_of(d.state, kStateSize); },
+          "state",
+          [](const FlightData& d) {
+            return rows_of(d.rows(), kStateSize, [&](std::size_t k) { return d.state(k); });
+          },
           "(rows, 13) state, a copy.")
       .def_property_readonly(
           "rotor_speed_rad_s",
-          [](const FlightData& d) { return rows_of(d.rotor_speed_rad_s, d.num_rotors); },
+          [](const FlightData& d) {
+            return rows_of(d.rows(), d.num_rotors(),
+                           [&](std::size_t k) { return d.rotor_speeds_rad_s(k); });
+          },
           "(rows, num_rotors) rotor speeds, a copy.")
       .def(
-          "__len__", [](const FlightData& d) { return d.t_s.size(); }, "Number of rows.");
+          "__len__", [](const FlightData& d) { return d.rows(); }, "Number of rows.");
 
   m.def(
       "read_flight",
       [](const std::string& path, int num_rotors, bool prefer_measured) {
-        return flight_data_from_log(read_csv_log(path), num_rotors, prefer_measured);
+        return read_flight_data(path, num_rotors, prefer_measured);
       },
       py::arg("path"), py::arg("num_rotors"), py::arg("prefer_measured") = true,
       py::call_guard<py::gil_scoped_release>(),
-      "Reads a log (CSV) into a FlightData: t, the state (measured columns when present and "
-      "prefer_measured), omega_0.., and omega_ref_*, in_contact, acc_* when present. ValueError "
-      "naming the file and the missing column otherwise.");
+      "Reads a log (CSV) into a FlightData, streaming it (only the columns the fit reads are "
+      "kept): t, the state (measured columns when present and prefer_measured), omega_0.., and "
+      "omega_ref_*, in_contact, acc_* when present. ValueError naming the file and the missing "
+      "column otherwise.");
 
   py::class_<FittedParameter>(m, "FittedParameter", "One identified parameter.")
       .def_readonly("name", &FittedParameter::name)
@@ -122,6 +139,48 @@ void bind_fit(py::module_& m) {
       .def_property_readonly(
           "holdout_after", [](const FitResult& r) { return stats_dict(r.holdout_after); },
           "Residual RMS on the held-out intervals with the estimates.")
+      .def_property_readonly(
+          "speed_sensor_gains",
+          [](const FitResult& r) {
+            py::list l;
+            for (const FittedGain& g : r.speed_sensor_gains)
+              l.append(py::make_tuple(g.estimate, g.std_error));
+            return l;
+          },
+          "[(gain, std_error)] per rotor (true speed = gain x logged speed; mean 1); empty when "
+          "the gains were not fitted.")
+      .def_property_readonly(
+          "holdout_check",
+          [](const FitResult& r) {
+            py::dict d;
+            d["available"] = r.holdout_check.available;
+            d["worse"] = r.holdout_check.worse;
+            d["summary"] = r.holdout_check.summary;
+            py::dict channels;
+            for (const HoldoutCheck::Channel& c : r.holdout_check.channels)
+              channels[py::str(c.name)] = py::make_tuple(c.before, c.after);
+            d["channels"] = channels;
+            return d;
+          },
+          "The fitted model against the starting one on the held-out part: {'available', "
+          "'worse', 'summary', 'channels': {name: (before, after)}} (mean loss per residual in "
+          "noise levels). `dronetwin fit` does not write a model whose check is worse unless "
+          "--force.")
+      .def_property_readonly(
+          "holdout_worse", [](const FitResult& r) { return r.holdout_check.worse; },
+          "True when the fit explains the held-out part worse than the starting model.")
+      .def_property_readonly(
+          "channels",
+          [](const FitResult& r) {
+            std::vector<std::string> c;
+            if (r.used_linear) c.emplace_back("linear");
+            if (r.used_angular) c.emplace_back("angular");
+            return c;
+          },
+          "The equation-error channels the fit used.")
+      .def_property_readonly("loss",
+                             [](const FitResult& r) { return std::string(fit_loss_name(r.loss)); })
+      .def_readonly("loss_scale", &FitResult::loss_scale)
       .def_readonly("rows", &FitResult::rows)
       .def_readonly("intervals_used", &FitResult::intervals_used)
       .def_readonly("intervals_holdout", &FitResult::intervals_holdout)
@@ -149,7 +208,9 @@ void bind_fit(py::module_& m) {
       "fit_model",
       [](const std::shared_ptr<VehicleModel>& model, const FlightData& flight, py::object params,
          const std::string& method, double holdout, py::object switches, double min_height_m,
-         double window_s, int max_windows, int max_iterations) {
+         double window_s, int max_windows, int max_iterations, const std::string& channels,
+         const std::string& loss, std::optional<double> loss_scale, const std::string& speed_gains,
+         int num_threads) {
         FitOptions o;
         o.parameters = parameters_from(params);
         if (method == "equation")
@@ -161,12 +222,17 @@ void bind_fit(py::module_& m) {
         else
           throw InvalidArgument(detail::concat(
               "fit_model: method must be 'equation', 'output' or 'both', got '", method, "'"));
+        o.channels = parse_fit_channels(channels);
+        o.loss = parse_fit_loss(loss);
+        o.loss_scale = loss_scale;
+        o.speed_sensor_gains = parse_speed_sensor_gains(speed_gains);
         o.holdout_fraction = holdout;
         if (!switches.is_none()) o.switches = switches.cast<DisturbanceSwitches>();
         o.min_height_m = min_height_m;
         o.window_s = window_s;
         o.max_windows = max_windows;
         o.max_iterations = max_iterations;
+        o.num_threads = num_threads;
         py::gil_scoped_release release;
         return fit_model(*model, flight, o);
       },
@@ -174,10 +240,15 @@ void bind_fit(py::module_& m) {
       py::arg("method") = "both", py::arg("holdout") = 0.2, py::arg("switches") = py::none(),
       py::arg("min_height_m") = -std::numeric_limits<double>::infinity(),
       py::arg("window_s") = 0.05, py::arg("max_windows") = 200, py::arg("max_iterations") = 50,
+      py::arg("channels") = "auto", py::arg("loss") = "huber", py::arg("loss_scale") = py::none(),
+      py::arg("speed_gains") = "auto", py::arg("num_threads") = 1,
       "Identifies `params` (names or groups, as a list or a comma-separated str: mass, inertia, "
       "thrust, yaw_moment_per_thrust, drag_moment, rotor_drag, rolling_moment, body_drag, "
       "ground_effect, motor, ...) of `model` from `flight` with Ceres; the same fit as "
-      "`dronetwin fit`. The GIL is released while it runs.\n\n"
+      "`dronetwin fit`, with the same options and checks: channels ('auto', 'linear', 'angular', "
+      "'linear,angular'), loss ('huber', 'cauchy', 'none') with loss_scale in noise levels, "
+      "speed_gains ('auto', 'fit', 'off'), num_threads (the result is the same on any number). "
+      "Check r.holdout_worse before using the fitted model. The GIL is released while it runs.\n\n"
       "    flight = dronetwin.read_flight('out/id/log.csv', 4)\n"
       "    r = dronetwin.fit_model(model, flight, 'thrust,inertia')\n"
       "    print(r.report()); fitted = dronetwin.VehicleModel(r.fitted_spec)");

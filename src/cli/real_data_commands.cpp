@@ -123,7 +123,14 @@ int identify_vertical(const RealDataCommands& c) {
   const LogTable log = read_csv_log(c.input);
   VerticalFitOptions o;
   o.fit_drag = !c.no_drag;
-  o.prior_mass_kg = c.prior_mass_kg;
+  if (c.prior_mass_option && c.prior_mass_option->count() > 0) {
+    // 0 would silently mean "the model's mass" to fit_vertical; a given mass must be one.
+    require(std::isfinite(c.prior_mass_kg) && c.prior_mass_kg > 0.0,
+            "--prior-mass: expected a mass in kg > 0, got ", c.prior_mass_kg);
+    o.prior_mass_kg = c.prior_mass_kg;
+  }
+  require(std::isfinite(c.train_fraction) && c.train_fraction > 0.0 && c.train_fraction < 1.0,
+          "--train-fraction: expected a share in (0, 1), got ", c.train_fraction);
   o.train_fraction = c.train_fraction;
   const VerticalFitResult r = fit_vertical(log, model, o);
   std::cout << "vertical fit " << c.input << " with thrust curve of " << c.model << ":\n"
@@ -197,8 +204,8 @@ void register_real_data_commands(CLI::App& app, RealDataCommands& c) {
   c.identify_vertical->add_option("--out,-o", c.out_dir,
                                   "Write vertical_fit.json, vertical_points.csv");
   c.identify_vertical->add_flag("--no-drag", c.no_drag, "Fit the thrust scale only");
-  c.identify_vertical->add_option("--prior-mass", c.prior_mass_kg,
-                                  "Mass (kg) of the no-fit prediction (default: the model's)");
+  c.prior_mass_option = c.identify_vertical->add_option(
+      "--prior-mass", c.prior_mass_kg, "Mass (kg) of the no-fit prediction (default: the model's)");
   c.identify_vertical->add_option("--train-fraction", c.train_fraction,
                                   "Fraction of airborne samples fitted (default 0.7)");
 }

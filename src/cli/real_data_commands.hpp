@@ -21,7 +21,9 @@ struct RealDataCommands {
   CLI::App* identify_stand = nullptr;
   CLI::App* identify_vertical = nullptr;
   std::string input, stand, out_dir, model;
+  /// --prior-mass, read when given (prior_mass_option->count() > 0; else the model's mass).
   double prior_mass_kg = 0.0;
+  CLI::Option* prior_mass_option = nullptr;
   double train_fraction = 0.7;
   bool no_drag = false;
   bool force = false;  ///< import: replace an earlier import's files

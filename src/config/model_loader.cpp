@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/logging/atomic_file.hpp"
 #include "dronetwin/logging/text_file.hpp"
 #include "yaml_strict.hpp"
 
@@ -281,12 +282,8 @@ std::string vehicle_spec_to_yaml(const VehicleSpec& spec) {
 }
 
 void save_vehicle_spec(const VehicleSpec& spec, const std::string& path) {
-  const std::string text = vehicle_spec_to_yaml(spec);
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file) throw InvalidArgument(path + ": cannot open for writing");
-  file << text;
-  file.close();
-  if (!file) throw InvalidArgument(path + ": error while writing the model file");
+  // Atomic: a failed write (full disk, no permission) leaves an existing model file as it was.
+  write_file_atomically(path, vehicle_spec_to_yaml(spec));
 }
 
 }  // namespace dronetwin

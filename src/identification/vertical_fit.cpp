@@ -13,6 +13,11 @@ VerticalFitResult fit_vertical(const LogTable& log, const VehicleModel& model,
                                const VerticalFitOptions& options) {
   require(options.train_fraction > 0.0 && options.train_fraction < 1.0,
           "fit_vertical: train_fraction must be in (0, 1), got ", options.train_fraction);
+  require(std::isfinite(options.prior_mass_kg) && options.prior_mass_kg >= 0.0,
+          "fit_vertical: prior_mass_kg must be a mass in kg > 0 (or 0 for the model's), got ",
+          options.prior_mass_kg);
+  require(std::isfinite(options.min_height_m),
+          "fit_vertical: min_height_m must be a finite height in m, got ", options.min_height_m);
   const int nr = model.num_rotors();
   const std::size_t ct = log.column("t"), cz = log.column("z"), cvz = log.column("vz"),
                     cqw = log.column("qw"), cqx = log.column("qx"), cqy = log.column("qy"),

@@ -1,6 +1,7 @@
 // CSV run logs (format in include/dronetwin/logging/csv_log.hpp and docs/log-format.md).
 #include "dronetwin/logging/csv_log.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cstring>
@@ -203,61 +204,98 @@ std::vector<double> LogTable::column_values(std::string_view name) const {
 }
 
 LogTable read_csv_log(const std::string& path) {
-  errno = 0;
-  std::ifstream in(path, std::ios::binary);
-  require(static_cast<bool>(in), path, ": cannot open log (", errno_text(), ")");
+  CsvLogReader in(path);
   LogTable t;
   t.source = path;
-  std::string line;
-  std::size_t line_number = 0;
-  const auto strip_cr = [](std::string& s) {
-    if (!s.empty() && s.back() == '\r') s.pop_back();
-  };
-  require(static_cast<bool>(std::getline(in, line)), path,
-          ": line 1: empty file, expected a header");
-  ++line_number;
-  strip_cr(line);
-  {
-    std::size_t start = 0;
-    for (;;) {
-      const std::size_t comma = line.find(',', start);
-      std::string name =
-          line.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-      require(!name.empty(), path, ": line 1, column ", t.columns.size() + 1,
-              ": expected a column name, got an empty field");
-      t.columns.push_back(std::move(name));
-      if (comma == std::string::npos) break;
-      start = comma + 1;
-    }
-  }
-  const std::size_t n = t.columns.size();
-  while (std::getline(in, line)) {
-    ++line_number;
-    strip_cr(line);
-    if (line.empty() && in.peek() == std::char_traits<char>::eof()) break;  // trailing newline
-    const char* p = line.data();
-    const char* const end = p + line.size();
-    std::size_t col = 0;
-    for (;;) {
-      const char* comma =
-          static_cast<const char*>(std::memchr(p, ',', static_cast<std::size_t>(end - p)));
-      const char* field_end = comma ? comma : end;
-      require(col < n, path, ": line ", line_number, ": expected ", n, " fields, got more");
-      double v = 0.0;
-      const auto r = std::from_chars(p, field_end, v);
-      if (r.ec != std::errc{} || r.ptr != field_end || p == field_end) {
-        require(false, path, ": line ", line_number, ", column ", col + 1, " (", t.columns[col],
-                "): expected a number, got '", std::string(p, field_end), "'");
-      }
-      t.values.push_back(v);
-      ++col;
-      if (!comma) break;
-      p = comma + 1;
-    }
-    require(col == n, path, ": line ", line_number, ": expected ", n, " fields, got ", col);
-  }
-  require(!in.bad(), path, ": error while reading the log");
+  t.columns = in.columns();
+  std::vector<double> row;
+  while (in.next(row)) t.values.insert(t.values.end(), row.begin(), row.end());
   return t;
+}
+
+CsvLogReader::CsvLogReader(const std::string& path) : path_(path) {
+  errno = 0;
+  in_.open(path, std::ios::binary);
+  require(static_cast<bool>(in_), path, ": cannot open log (", errno_text(), ")");
+  require(static_cast<bool>(std::getline(in_, line_)), path,
+          ": line 1: empty file, expected a header");
+  line_number_ = 1;
+  if (!line_.empty() && line_.back() == '\r') line_.pop_back();
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t comma = line_.find(',', start);
+    std::string name =
+        line_.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    require(!name.empty(), path, ": line 1, column ", columns_.size() + 1,
+            ": expected a column name, got an empty field");
+    columns_.push_back(std::move(name));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+}
+
+bool CsvLogReader::has_column(std::string_view name) const {
+  return std::find(columns_.begin(), columns_.end(), name) != columns_.end();
+}
+
+std::size_t CsvLogReader::column(std::string_view name) const {
+  for (std::size_t i = 0; i < columns_.size(); ++i)
+    if (columns_[i] == name) return i;
+  throw InvalidArgument(path_ + ": no column '" + std::string(name) + "'");
+}
+
+bool CsvLogReader::next(std::vector<double>& values) {
+  const std::size_t n = columns_.size();
+  values.resize(n);
+  if (!std::getline(in_, line_)) {
+    require(!in_.bad(), path_, ": error while reading the log (", errno_text(), ")");
+    return false;
+  }
+  ++line_number_;
+  if (!line_.empty() && line_.back() == '\r') line_.pop_back();
+  if (line_.empty() && in_.peek() == std::char_traits<char>::eof()) return false;  // trailing \n
+  const char* p = line_.data();
+  const char* const end = p + line_.size();
+  std::size_t col = 0;
+  for (;;) {
+    const char* comma =
+        static_cast<const char*>(std::memchr(p, ',', static_cast<std::size_t>(end - p)));
+    const char* field_end = comma ? comma : end;
+    require(col < n, path_, ": line ", line_number_, ": expected ", n, " fields, got more");
+    double v = 0.0;
+    const auto r = std::from_chars(p, field_end, v);
+    if (r.ec != std::errc{} || r.ptr != field_end || p == field_end) {
+      require(false, path_, ": line ", line_number_, ", column ", col + 1, " (", columns_[col],
+              "): expected a number, got '", std::string(p, field_end), "'");
+    }
+    values[col++] = v;
+    if (!comma) break;
+    p = comma + 1;
+  }
+  require(col == n, path_, ": line ", line_number_, ": expected ", n, " fields, got ", col);
+  return true;
+}
+
+std::size_t CsvLogReader::count_rows(const std::string& path) {
+  errno = 0;
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  require(f != nullptr, path, ": cannot open log (", errno_text(), ")");
+  std::vector<char> buffer(kBufferBytes * 16);
+  std::size_t lines = 0, got = 0;
+  char last = '\n';
+  while ((got = std::fread(buffer.data(), 1, buffer.size(), f)) > 0) {
+    const char* p = buffer.data();
+    const char* const end = p + got;
+    while (
+        (p = static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p))))) {
+      ++lines;
+      ++p;
+    }
+    last = buffer[got - 1];
+  }
+  std::fclose(f);
+  if (last != '\n') ++lines;         // a last line without its line end
+  return lines > 0 ? lines - 1 : 0;  // the header
 }
 
 }  // namespace dronetwin

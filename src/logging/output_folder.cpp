@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/logging/atomic_file.hpp"
 
 namespace dronetwin {
 namespace {
@@ -21,20 +22,6 @@ namespace fs = std::filesystem;
 constexpr const char* kLockName = ".dronetwin.lock";
 
 std::string partial_name(const std::string& name) { return "." + name + ".partial"; }
-
-/// The path with links and `..` resolved as far as it exists (for comparing an output with an
-/// input that may be spelled differently).
-fs::path resolved(const fs::path& p) {
-  std::error_code ec;
-  fs::path r = fs::weakly_canonical(fs::absolute(p, ec), ec);
-  return ec ? fs::absolute(p).lexically_normal() : r;
-}
-
-bool same_file(const fs::path& a, const fs::path& b) {
-  std::error_code ec;
-  if (fs::exists(a, ec) && fs::exists(b, ec) && fs::equivalent(a, b, ec) && !ec) return true;
-  return resolved(a) == resolved(b);
-}
 
 std::string errno_text() { return std::generic_category().message(errno); }
 

@@ -95,6 +95,31 @@ TEST_F(RealDataCli, StandImportAndVerticalFit) {
   EXPECT_TRUE(fs::exists(dir_ / "vertical_fit.json"));
 }
 
+// Issue "Reliability" item 3: a prior mass that is no mass (negative, zero, NaN, inf) used to
+// be taken as "the model's mass" or to poison the prediction; it is now refused by name.
+TEST_F(RealDataCli, VerticalFitRefusesAPriorMassThatIsNoMass) {
+  std::string out, err;
+  ASSERT_EQ(run("import crazypad " + q(kFlight) + " --stand " + q(kStand) + " --out " + d(), &out),
+            0)
+      << out;
+  const std::string log = q((dir_ / "E8_log00.csv").string());
+  for (const char* mass : {"-1", "0", "nan", "inf"}) {
+    EXPECT_EQ(run("identify vertical " + log + " --model " + q(kModel) + " --prior-mass " + mass +
+                      " --out " + d(),
+                  &out, &err),
+              2)
+        << mass << out;
+    EXPECT_NE(err.find("--prior-mass: expected a mass in kg > 0, got"), std::string::npos)
+        << mass << err;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "vertical_fit.json"));
+  EXPECT_EQ(run("identify vertical " + log + " --model " + q(kModel) +
+                    " --prior-mass 0.031 --no-drag --out " + d(),
+                &out, &err),
+            0)
+      << out << err;
+}
+
 TEST_F(RealDataCli, ImportULogGivesAZUpFlight) {
   std::string out;
   ASSERT_EQ(run("import ulog " + q(kULog) + " --out " + d(), &out), 0) << out;

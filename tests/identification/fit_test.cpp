@@ -61,6 +61,21 @@ Flight fly(const std::string& experiment, const VehicleSpec& base,
   return f;
 }
 
+// A copy of `d` with the rows k where keep(k), in the layout `layout` (a reference or rate column
+// dropped), and in contact where contact(k).
+template <class Keep, class Contact>
+FlightData copy_rows(const FlightData& d, const FlightData::Layout& layout, Keep keep,
+                     Contact contact) {
+  FlightData out(d.source(), layout);
+  for (std::size_t k = 0; k < d.rows(); ++k) {
+    if (!keep(k)) continue;
+    out.append_row(d.t_s(k), d.state(k), d.rotor_speeds_rad_s(k),
+                   d.has_rotor_references() ? d.rotor_references_rad_s(k) : nullptr, contact(k),
+                   d.has_specific_force() ? Vec3(d.specific_force_W_m_s2(k)) : Vec3::Zero());
+  }
+  return out;
+}
+
 std::vector<ModelParameter> parameters_of(const std::vector<Change>& changes) {
   std::vector<ModelParameter> p;
   for (const Change& c : changes) p.push_back(c.parameter);
@@ -135,7 +150,7 @@ TEST(FitRecovery, MassAndDragMomentWithTheThrustKnown) {
 TEST(FitRecovery, OuNoiseOnRecoversWithinFivePercentFromTheMeasuredState) {
   const auto nominal = test::load_model("qdrone2");
   const Flight f = fly("identification_flight_noise.yaml", nominal->spec(), kBodyChanges, 60.0);
-  ASSERT_TRUE(f.data.used_measured);
+  ASSERT_TRUE(f.data.used_measured());
   FitOptions o;
   o.parameters = parameters_of(kBodyChanges);
   const FitResult r = fit_model(*nominal, f.data, o);
@@ -202,17 +217,10 @@ TEST(FitData, GapsAndContactRowsAreSkippedAndTheFitStillRecovers) {
   const std::vector<Change> changes{{P::kThrustK1, 1.2}, {P::kInertiaYY, 1.2}};
   Flight f = fly("identification_flight.yaml", nominal->spec(), changes, 10.0);
   // Drop rows 2000..2099 and 5000..5049 (two gaps) and mark 100 rows as in contact.
-  FlightData& d = f.data;
-  for (const auto& [from, count] : std::vector<std::pair<int, int>>{{5000, 50}, {2000, 100}}) {
-    d.t_s.erase(d.t_s.begin() + from, d.t_s.begin() + from + count);
-    d.state.erase(d.state.begin() + from, d.state.begin() + from + count);
-    d.rotor_speed_rad_s.erase(d.rotor_speed_rad_s.begin() + from,
-                              d.rotor_speed_rad_s.begin() + from + count);
-    d.rotor_reference_rad_s.erase(d.rotor_reference_rad_s.begin() + from,
-                                  d.rotor_reference_rad_s.begin() + from + count);
-    d.in_contact.erase(d.in_contact.begin() + from, d.in_contact.begin() + from + count);
-  }
-  for (int k = 7000; k < 7100; ++k) d.in_contact[static_cast<std::size_t>(k)] = 1;
+  const FlightData d = copy_rows(
+      f.data, f.data.layout(),
+      [](std::size_t k) { return !(k >= 2000 && k < 2100) && !(k >= 5000 && k < 5050); },
+      [](std::size_t k) { return k >= 7150 && k < 7250; });  // rows 7000..7099 after the drops
   FitOptions o;
   o.parameters = parameters_of(changes);
   const FitResult r = fit_model(*nominal, d, o);
@@ -228,18 +236,11 @@ TEST(FitData, ALogAtAThirdOfThePhysicsRateStillRecovers) {
   const std::vector<Change> changes{
       {P::kThrustK1, 1.2}, {P::kInertiaZZ, 0.8}, {P::kBodyDragX, 1.2}};
   const Flight f = fly("identification_flight.yaml", nominal->spec(), changes, 20.0);
-  FlightData slow = f.data;
-  slow.t_s.clear();
-  slow.state.clear();
-  slow.rotor_speed_rad_s.clear();
-  slow.in_contact.clear();
-  slow.rotor_reference_rad_s.clear();
-  for (std::size_t k = 0; k < f.data.t_s.size(); k += 3) {
-    slow.t_s.push_back(f.data.t_s[k]);
-    slow.state.push_back(f.data.state[k]);
-    slow.rotor_speed_rad_s.push_back(f.data.rotor_speed_rad_s[k]);
-    slow.in_contact.push_back(f.data.in_contact[k]);
-  }
+  FlightData::Layout layout = f.data.layout();
+  layout.rotor_references = false;
+  const FlightData slow = copy_rows(
+      f.data, layout, [](std::size_t k) { return k % 3 == 0; },
+      [&](std::size_t k) { return f.data.in_contact(k); });
   FitOptions o;
   o.parameters = parameters_of(changes);
   const FitResult r = fit_model(*nominal, slow, o);
@@ -262,13 +263,16 @@ TEST(FitData, MissingColumnsAndBadOptionsAreNamed) {
   EXPECT_NE(e.find("'x'"), std::string::npos) << e;
 
   const auto model = test::load_model("qdrone2");
-  Flight f = fly("identification_flight.yaml", model->spec(), {}, 2.0);
+  const Flight f = fly("identification_flight.yaml", model->spec(), {}, 2.0);
   FitOptions o;
   e = test::error_of([&] { (void)fit_model(*model, f.data, o); });
   EXPECT_NE(e.find("no parameters"), std::string::npos) << e;
   o.parameters = {P::kTauRise};
-  f.data.rotor_reference_rad_s.clear();
-  e = test::error_of([&] { (void)fit_model(*model, f.data, o); });
+  FlightData::Layout no_references = f.data.layout();
+  no_references.rotor_references = false;
+  const FlightData without_references = copy_rows(
+      f.data, no_references, [](std::size_t) { return true; }, [](std::size_t) { return false; });
+  e = test::error_of([&] { (void)fit_model(*model, without_references, o); });
   EXPECT_NE(e.find("omega_ref_0"), std::string::npos) << e;
   EXPECT_NE(test::error_of([] {
               (void)parse_parameter_list("thrust,mas");
@@ -324,23 +328,22 @@ TEST(FitData, UnusableFlightsAndOptionsAreNamed) {
             std::string::npos);
   o.holdout_fraction = 0.2;
   o.window_s = 5.0;  // longer than the 1.6 s fitted
-  EXPECT_NE(error(f.data, o, *model).find("for an output-error window of 5 s"), std::string::npos);
+  EXPECT_NE(error(f.data, o, *model).find("log intervals, longer than the"), std::string::npos);
   o.window_s = 0.05;
   EXPECT_NE(
       error(f.data, o, *test::load_model("hexarotor")).find("the log has 4 rotors, the model"),
       std::string::npos);
-  FlightData few = f.data;  // 30 rows: 23 intervals to fit, 4 x 17 + 10 needed
-  few.t_s.resize(30);
-  few.state.resize(30);
-  few.rotor_speed_rad_s.resize(30);
-  few.rotor_reference_rad_s.resize(30);
-  few.in_contact.resize(30);
+  const FlightData few = copy_rows(  // 30 rows: 23 intervals to fit, 4 x 17 + 10 needed
+      f.data, f.data.layout(), [](std::size_t k) { return k < 30; },
+      [](std::size_t) { return false; });
   o.parameters = parse_parameter_list(
       "mass,inertia,thrust,yaw_moment_per_thrust,drag_moment,"
       "rotor_drag,rolling_moment,body_drag,ground_effect,motor");
   EXPECT_NE(error(few, o, *model).find("usable intervals to fit"), std::string::npos);
-  FlightData no_rates = f.data;
-  no_rates.has_body_rates = false;
+  FlightData::Layout without_rates = f.data.layout();
+  without_rates.body_rates = false;
+  const FlightData no_rates = copy_rows(
+      f.data, without_rates, [](std::size_t) { return true; }, [](std::size_t) { return false; });
   o.parameters = {P::kInertiaZZ};
   EXPECT_NE(error(no_rates, o, *model).find("inertia_zz needs the body rates (columns wx, wy, wz"),
             std::string::npos);

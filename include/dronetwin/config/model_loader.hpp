@@ -22,7 +22,8 @@ VehicleSpec parse_vehicle_spec(const std::string& yaml_text, const std::string& 
 VehicleModel load_vehicle_model(const std::string& path);
 
 /// Writes a spec as a model file that load_vehicle_spec reads back to the same numbers
-/// (full precision, one explicit entry per rotor).
+/// (full precision, one explicit entry per rotor). Atomically (logging/atomic_file.hpp): a
+/// failure leaves an existing file as it was, and the message says why (errno).
 void save_vehicle_spec(const VehicleSpec& spec, const std::string& path);
 
 /// The YAML text save_vehicle_spec would write.

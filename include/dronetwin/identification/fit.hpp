@@ -3,30 +3,48 @@
 // (through parameter_map.hpp and the force kernel) is fitted to the log with Ceres, in up to three
 // ways.
 //
-//   equation error   the acceleration between two rows, (v_{k+1} - v_k)/dt and
-//                    (w_{k+1} - w_k)/dt, against the model's mean acceleration over the interval
-//                    (trapezoid of f at both rows, logged rotor speeds held as the simulator holds
-//                    them): fast, and exact to O(dt^2) for logs at the physics rate;
+//   equation error   the acceleration between two rows, (v_{k+1} - v_k)/dt (or the logged
+//                    accelerometer) and (w_{k+1} - w_k)/dt, against the model's mean acceleration
+//                    over the interval (trapezoid of f at both rows, logged rotor speeds held as
+//                    the simulator holds them): exact to O(dt^2) for logs at the physics rate;
 //   output error     multiple shooting: short windows started from the logged state, integrated
 //                    with RK4 through the logged rotor speeds, compared with the logged position,
 //                    velocity, attitude and body rates (noise in single rows averages out);
 //   motor lag        w_{k+1} = a w_k + (1 - a) clamp(w_ref,k), a = exp(-dt/tau) (Eq. 2.45), for
 //                    tau_rise / tau_fall, from the rotor-speed and reference columns.
 //
-// Residual channels are weighted by 1/RMS at a first solution and the problem solved again, so
-// m/s^2, rad/s^2, m and rad are comparable and the standard errors (Ceres covariance,
-// sigma^2 = 2 cost / (n - p)) are in the data's own noise units.
+// Real flights (docs/identification.md, "Fitting real flights"):
+//   channels   the equation error compares the linear and/or the angular accelerations
+//              (FitOptions::channels). By default (kAuto) the angular channel is used only when a
+//              fitted parameter acts on the angular accelerations alone (inertia, yaw and drag
+//              moments, rolling moment): it differences a noisy gyro, and per-motor speed-sensor
+//              errors appear in it as torques from rotor-speed differences;
+//   loss       Huber (default) or Cauchy on every residual in units of its channel's robust noise
+//              level (1.4826 x median |r|), so spikes and glitches lose their pull;
+//   gains      per-rotor speed-sensor gains g_i (true speed = g_i x logged), fitted by default
+//              whenever the angular channel is used. Their mean is fixed at 1: a scale common to
+//              all sensors cannot be told from the thrust coefficients;
+//   check      the fitted model and the starting one are compared on the held-out end of the
+//              flight; a fit that explains it worse is flagged (FitResult::holdout_check), and
+//              `dronetwin fit` then refuses to write the model unless --force.
+//
+// The equation error and the motor lag are streamed: every solver iteration walks the log once
+// and accumulates the normal equations (J^T W J, J^T W r over the free parameters), so the fit
+// keeps no per-row Jacobian (Ceres drives the iterations through a square-root information
+// block); chunks of the log go to FitOptions::num_threads threads and are summed in a fixed
+// order, so the result is bitwise the same on any number of threads. The output-error windows
+// (bounded: max_windows) are ordinary Ceres residual blocks.
 //
 //   VehicleModel model = load_vehicle_model("models/qdrone2.yaml");
-//   FlightData data = flight_data_from_log(read_csv_log("out/id/log.csv"), model.num_rotors());
+//   FlightData data = read_flight_data("out/id/log.csv", model.num_rotors());
 //   FitOptions o;  o.parameters = parse_parameter_list("thrust,inertia,body_drag");
 //   FitResult r = fit_model(model, data, o);
-//   save_vehicle_spec(r.fitted_spec, "fitted.yaml");
+//   if (!r.holdout_check.worse) save_vehicle_spec(r.fitted_spec, "fitted.yaml");
 //
 // Rows in ground contact (in_contact = 1), below FitOptions::min_height_m or with a rotor
 // (nearly) stopped, and intervals across a gap in time (dt more than FitOptions::max_gap_factor
-// times the median) are left out. The last holdout_fraction of the
-// intervals is not fitted; FitResult reports the residuals there before and after.
+// times the median) are left out. The last holdout_fraction of the intervals is not fitted;
+// FitResult reports the residuals there before and after.
 //
 // Trap: accelerations depend on forces / mass, so mass and a complete set of force coefficients
 // (e.g. mass with thrust) cannot be fitted together: the fit then warns of a correlation near 1.
@@ -34,56 +52,60 @@
 
 #include <Eigen/Core>
 #include <limits>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "dronetwin/core/types.hpp"
 #include "dronetwin/dynamics/environment.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
+#include "dronetwin/identification/flight_data.hpp"
 #include "dronetwin/identification/model_parameters.hpp"
-#include "dronetwin/logging/csv_log.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
 
 namespace dronetwin {
 
-/// A flight as the fit sees it: one entry per log row.
-struct FlightData {
-  std::string source;
-  int num_rotors = 0;
-  std::vector<double> t_s;
-  std::vector<StateVector> state;  ///< measured state when the log has it (see used_measured)
-  std::vector<RotorVector> rotor_speed_rad_s;
-  /// Rotor speed references (omega_ref_i); empty when the log has none.
-  std::vector<RotorVector> rotor_reference_rad_s;
-  /// 1 where the vehicle touched the ground (in_contact); all 0 when the log has no such column.
-  std::vector<char> in_contact;
-  /// True when the state came from the meas_* columns (what a real sensor log holds).
-  bool used_measured = false;
-  /// False when the log has no wx, wy, wz: the rates are then derived from successive
-  /// quaternions and the angular-acceleration residuals are not used.
-  bool has_body_rates = true;
-  /// World-frame specific force dv/dt - g (acc_x, acc_y, acc_z, what an accelerometer reads
-  /// turned into world axes) when the log has it; the equation error then uses it instead of
-  /// differencing the velocity. Empty otherwise.
-  std::vector<Vec3> specific_force_W_m_s2;
-};
-
-/// Extracts a FlightData from a log. Needs t, the state (meas_x..meas_wz when present and
-/// `prefer_measured`, else x..wz; the rates may be missing) and omega_0..omega_{N-1};
-/// omega_ref_*, in_contact and acc_x..acc_z are used when present. InvalidArgument naming the log
-/// and the missing column, or a row whose time does not increase or whose values are not finite.
-FlightData flight_data_from_log(const LogTable& log, int num_rotors, bool prefer_measured = true);
-
 enum class FitMethod { kEquationError, kOutputError, kBoth };
+
+/// Which accelerations the equation error compares (and which states the output-error windows
+/// compare: position and velocity for linear, attitude and rates for angular).
+enum class FitChannels { kAuto, kLinear, kAngular, kLinearAngular };
+/// "auto", "linear", "angular", "linear,angular" (also "angular,linear").
+FitChannels parse_fit_channels(std::string_view text);
+std::string_view fit_channels_name(FitChannels channels);
+
+/// The loss on each residual, in units of its channel's robust noise level: none (least squares),
+/// Huber (quadratic, then linear beyond the scale) or Cauchy (logarithmic beyond it).
+enum class FitLoss { kNone, kHuber, kCauchy };
+FitLoss parse_fit_loss(std::string_view text);  ///< "none", "huber", "cauchy"
+std::string_view fit_loss_name(FitLoss loss);
+/// The standard scale of a loss: 1.345 (Huber) and 2.385 (Cauchy) noise levels keep 95 % of
+/// least squares' efficiency on Gaussian noise; 0 for none.
+double default_loss_scale(FitLoss loss);
+
+/// Per-rotor speed-sensor gains g_i (true speed = g_i x logged speed), normalised to mean 1:
+/// fitted whenever the angular channel is used (kAuto), always (kFit) or never (kOff).
+enum class SpeedSensorGains { kAuto, kFit, kOff };
+SpeedSensorGains parse_speed_sensor_gains(std::string_view text);  ///< "auto", "fit", "off"
+std::string_view speed_sensor_gains_name(SpeedSensorGains gains);
 
 struct FitOptions {
   std::vector<ModelParameter> parameters;
   FitMethod method = FitMethod::kBoth;
+  FitChannels channels = FitChannels::kAuto;
+  FitLoss loss = FitLoss::kHuber;
+  /// Loss scale in noise levels; empty: default_loss_scale(loss).
+  std::optional<double> loss_scale;
+  SpeedSensorGains speed_sensor_gains = SpeedSensorGains::kAuto;
   /// Disturbance terms and environment the flight was flown with (the log's sidecar says).
   DisturbanceSwitches switches{};
   Environment environment{};
   /// Share of the flight (the last intervals) kept out of the fit for validation.
   double holdout_fraction = 0.2;
+  /// The fit is flagged as worse (FitResult::holdout_check) when a fitted channel's held-out
+  /// loss grows by more than this share over the starting model's.
+  double holdout_tolerance = 0.01;
   /// An interval longer than this times the median interval is a gap.
   double max_gap_factor = 1.5;
   /// Rows below this height (m) are left out, like rows in contact: a real log without an
@@ -92,11 +114,12 @@ struct FitOptions {
   /// Rows with a rotor slower than this (rad/s) are left out (motors off or stalling: the
   /// thrust curve is not meant for them).
   double min_rotor_speed_rad_s = 1.0;
-  /// Output error: window length, s, and at most this many windows (spread evenly).
+  /// Output error: window length, s (at least two log intervals), and at most this many
+  /// windows (spread evenly, >= 1).
   double window_s = 0.05;
   int max_windows = 200;
   int max_iterations = 50;
-  /// Threads for Ceres' Jacobian evaluation (results do not depend on it).
+  /// Threads for the streamed residuals (results are bitwise the same on any number).
   int num_threads = 1;
 };
 
@@ -119,13 +142,45 @@ struct ResidualStats {
   double motor_speed_rad_s = 0.0;  ///< motor-lag residual
 };
 
+/// One speed-sensor gain: true speed = estimate x logged speed of that rotor.
+struct FittedGain {
+  int rotor = 0;
+  double estimate = 1.0;
+  double std_error = 0.0;  ///< NaN when the covariance could not be computed
+};
+
+/// The fitted model against the starting one on the held-out intervals, channel by channel, in
+/// the fit's own terms: the mean loss per residual with the fit's final noise levels.
+struct HoldoutCheck {
+  struct Channel {
+    std::string name;  ///< "linear acceleration", "angular acceleration", "window position", ...
+    double before = 0.0, after = 0.0;
+  };
+  bool available = false;         ///< false when nothing was held out
+  std::vector<Channel> channels;  ///< the channels the fit used
+  /// A fitted channel explains the held-out part worse than the starting model did (by more than
+  /// FitOptions::holdout_tolerance).
+  bool worse = false;
+  /// One line saying what was compared and the outcome, for reports and refusals.
+  std::string summary;
+};
+
 struct FitResult {
   std::vector<FittedParameter> parameters;
-  /// Correlation of the estimates (parameters order); empty when the covariance failed.
+  /// Empty unless the gains were fitted; one per rotor (the last one is num_rotors minus the sum
+  /// of the others: their mean is 1).
+  std::vector<FittedGain> speed_sensor_gains;
+  /// Correlation of the estimates (parameters, then the free gains, rotors 0..N-2); empty when
+  /// the covariance failed.
   Eigen::MatrixXd correlation;
   /// Poorly identifiable parameters, high correlations, and anything else a user should know.
   std::vector<std::string> warnings;
   ResidualStats fit_before, fit_after, holdout_before, holdout_after;
+  HoldoutCheck holdout_check;
+  /// What the fit used, with kAuto resolved.
+  bool used_linear = false, used_angular = false;
+  FitLoss loss = FitLoss::kNone;
+  double loss_scale = 0.0;
   std::size_t rows = 0, intervals_used = 0, intervals_holdout = 0, gaps = 0, contact_rows = 0;
   /// Rows left out for being below min_height_m or having a rotor below min_rotor_speed_rad_s.
   std::size_t excluded_rows = 0;
@@ -139,7 +194,8 @@ struct FitResult {
 };
 
 /// Fits options.parameters of `model` to `data`. InvalidArgument for an empty parameter list,
-/// motor parameters without a reference column, too few usable intervals, or bad options.
+/// motor parameters without a reference column, too few usable intervals, or bad options (each
+/// named with its value: NaN, out of range, a window shorter than two log intervals, ...).
 FitResult fit_model(const VehicleModel& model, const FlightData& data, const FitOptions& options);
 
 /// A human-readable report (estimates, standard errors, residuals, warnings).

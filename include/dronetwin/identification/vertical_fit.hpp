@@ -35,7 +35,7 @@ struct VerticalFitOptions {
   /// Airborne threshold on z. The CrazyPAD E8 flight lands between its two hops where the
   /// estimator reads z = 0.10 m, so the threshold must be above that.
   double min_height_m = 0.15;
-  /// Mass for the no-fit prediction (the model's mass if <= 0).
+  /// Mass for the no-fit prediction; 0 means the model's mass (negative or NaN is an error).
   double prior_mass_kg = 0.0;
 };
 

@@ -27,6 +27,7 @@
 
 #include <cstddef>
 #include <cstdio>
+#include <fstream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -118,5 +119,41 @@ struct LogTable {
 /// Reads a CSV log. InvalidArgument naming the file, line and column (number and name) for a
 /// malformed field or a row with the wrong number of fields.
 LogTable read_csv_log(const std::string& path);
+
+/// Reads a CSV log one row at a time, with the checks and messages of read_csv_log(): a reader
+/// that keeps only some columns of a long log (identification/flight_data.hpp) never holds the
+/// whole table.
+///
+///   CsvLogReader in("out/id/log.csv");
+///   const std::size_t z = in.column("z");
+///   std::vector<double> row;
+///   while (in.next(row)) use(row[z]);
+class CsvLogReader {
+ public:
+  /// Opens `path` and reads the header. InvalidArgument naming the file (and why it cannot be
+  /// opened) otherwise.
+  explicit CsvLogReader(const std::string& path);
+
+  const std::string& path() const { return path_; }
+  const std::vector<std::string>& columns() const { return columns_; }
+  bool has_column(std::string_view name) const;
+  /// Index of a column; InvalidArgument "<path>: no column '<name>'" otherwise.
+  std::size_t column(std::string_view name) const;
+  /// Reads the next row into `values` (resized to columns().size()); false at the end of the file.
+  bool next(std::vector<double>& values);
+  /// Line of the file the last row came from (the header is line 1).
+  std::size_t line_number() const { return line_number_; }
+
+  /// An upper bound of the number of data rows of `path` (its line ends), found by a fast scan
+  /// without parsing, to reserve memory before reading.
+  static std::size_t count_rows(const std::string& path);
+
+ private:
+  std::string path_;
+  std::ifstream in_;
+  std::vector<std::string> columns_;
+  std::string line_;
+  std::size_t line_number_ = 0;
+};
 
 }  // namespace dronetwin
