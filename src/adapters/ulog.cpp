@@ -700,7 +700,7 @@ ULog parse_ulog(const std::vector<std::uint8_t>& bytes, const std::string& sourc
 ULog read_ulog(const std::string& path) {
   errno = 0;
   std::ifstream in(path, std::ios::binary);
-  require(static_cast<bool>(in), path, ": cannot open ULog file (", std::strerror(errno), ")");
+  require(static_cast<bool>(in), path, ": cannot open ULog file (", errno_text(), ")");
   std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
                                   std::istreambuf_iterator<char>());
   require(!in.bad(), path, ": error while reading the file");

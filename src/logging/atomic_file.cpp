@@ -14,8 +14,6 @@
 namespace dronetwin {
 namespace {
 
-std::string reason(int error) { return std::generic_category().message(error); }
-
 std::filesystem::path folder_of(const std::filesystem::path& p) {
   return p.has_parent_path() ? p.parent_path() : std::filesystem::path(".");
 }
@@ -49,7 +47,7 @@ AtomicFileWriter::AtomicFileWriter(std::filesystem::path path) : path_(std::move
   if (fd_ < 0) {
     const int error = errno;
     throw InvalidArgument(path_.string() + ": cannot write (cannot create a file in " +
-                          folder.string() + ": " + reason(error) + ")");
+                          folder.string() + ": " + errno_text(error) + ")");
   }
 }
 
@@ -65,7 +63,7 @@ void AtomicFileWriter::commit(const std::string& text) {
     fd_ = -1;
     ::unlink(temporary_.c_str());
     temporary_.clear();
-    throw InvalidArgument(path_.string() + ": " + what + " (" + reason(error) +
+    throw InvalidArgument(path_.string() + ": " + what + " (" + errno_text(error) +
                           "); the file was not changed");
   };
   const char* p = text.data();
@@ -85,14 +83,14 @@ void AtomicFileWriter::commit(const std::string& text) {
     const int error = errno;
     ::unlink(temporary_.c_str());
     temporary_.clear();
-    throw InvalidArgument(path_.string() + ": error while writing (" + reason(error) +
+    throw InvalidArgument(path_.string() + ": error while writing (" + errno_text(error) +
                           "); the file was not changed");
   }
   if (::rename(temporary_.c_str(), path_.c_str()) != 0) {
     const int error = errno;
     ::unlink(temporary_.c_str());
     temporary_.clear();
-    throw InvalidArgument(path_.string() + ": cannot replace it (" + reason(error) +
+    throw InvalidArgument(path_.string() + ": cannot replace it (" + errno_text(error) +
                           "); the file was not changed");
   }
   temporary_.clear();

@@ -21,10 +21,6 @@ constexpr std::size_t kBufferBytes = 1 << 16;
 // needs more than this, separator included.
 constexpr std::size_t kMaxFieldBytes = 32;
 
-std::string errno_text() {
-  return errno != 0 ? std::generic_category().message(errno) : std::string("unknown error");
-}
-
 constexpr const char* kAxes[] = {"x", "y", "z"};
 
 /// The 13 state columns: name, unit, meaning.

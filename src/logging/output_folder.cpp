@@ -23,8 +23,6 @@ constexpr const char* kLockName = ".dronetwin.lock";
 
 std::string partial_name(const std::string& name) { return "." + name + ".partial"; }
 
-std::string errno_text() { return std::generic_category().message(errno); }
-
 }  // namespace
 
 OutputFolder::OutputFolder(fs::path dir, std::vector<std::string> names,

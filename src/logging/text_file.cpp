@@ -17,9 +17,7 @@ std::string read_text_file(const std::string& path, const std::string& what) {
   errno = 0;
   std::ifstream in(path, std::ios::binary);
   if (!in) {
-    const std::string reason =
-        errno != 0 ? std::generic_category().message(errno) : std::string("unknown error");
-    throw InvalidArgument(path + ": cannot open " + what + " (" + reason + ")");
+    throw InvalidArgument(path + ": cannot open " + what + " (" + errno_text() + ")");
   }
   std::ostringstream text;
   text << in.rdbuf();
@@ -28,11 +26,12 @@ std::string read_text_file(const std::string& path, const std::string& what) {
 }
 
 void write_text_file(const std::filesystem::path& path, const std::string& text) {
+  errno = 0;
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  require(static_cast<bool>(out), path.string(), ": cannot open for writing");
+  require(static_cast<bool>(out), path.string(), ": cannot open for writing (", errno_text(), ")");
   out << text;
   out.close();
-  require(static_cast<bool>(out), path.string(), ": error while writing");
+  require(static_cast<bool>(out), path.string(), ": error while writing (", errno_text(), ")");
 }
 
 }  // namespace dronetwin

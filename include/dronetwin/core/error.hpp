@@ -2,10 +2,12 @@
 // Error reporting. Anything a user, a file or Python can get wrong throws one of these with a
 // message that says where (file, field, index) and what was expected versus what was found.
 
+#include <cerrno>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <system_error>
 
 namespace dronetwin {
 
@@ -37,6 +39,13 @@ std::string concat(const Parts&... parts) {
 template <class... Parts>
 void require(bool condition, const Parts&... parts) {
   if (!condition) throw InvalidArgument(detail::concat(parts...));
+}
+
+/// The system's reason for the last failed call (errno), for messages like
+/// "<path>: cannot open log (No such file or directory)". Reads errno: call it right after the
+/// failing call; "unknown error" when errno is 0 (a stream that failed without a system error).
+inline std::string errno_text(int error = errno) {
+  return error != 0 ? std::generic_category().message(error) : std::string("unknown error");
 }
 
 /// True when every coefficient of an Eigen expression is finite.
