@@ -115,3 +115,30 @@ def default_data_dir():
         if candidate and _os.path.isdir(_os.path.join(candidate, "models")):
             return _os.path.normpath(candidate)
     return None
+
+
+def BatchSimulator(model, config=None, num_vehicles=1, num_threads=1, dtype=_np.float64):
+    """N vehicles of one airframe stepped together (the batched engine, docs/batch.md).
+
+    Every lane is the Simulator's vehicle with its own state, rotor speeds, wind and parameters;
+    in float64 a lane equals a Simulator run bit for bit. ``dtype`` is numpy.float64 (default) or
+    numpy.float32 (twice the lanes per instruction). The state is a live (N, 13) view:
+
+        batch = dt.BatchSimulator(model, dt.SimConfig(), num_vehicles=4096, num_threads=2)
+        batch.reset(None, dt.Simulator.hover_state([0, 0, 1]), model.hover_speeds_rad_s())
+        batch.set_parameter("mass", rng.uniform(1.3, 1.7, 4096))   # domain randomisation
+        batch.rotor_speed_reference[:] = model.hover_speeds_rad_s()
+        failed = batch.step(100)                                     # GIL released
+        z = batch.state[:, 2]
+
+    A lane whose step fails stops at its last good state with a non-zero ``status`` entry
+    (a StepStatus value) while the others go on; ``reset`` revives it.
+    """
+    if config is None:
+        config = SimConfig()
+    dtype = _np.dtype(dtype)
+    if dtype == _np.float64:
+        return BatchSimulator64(model, config, num_vehicles, num_threads)
+    if dtype == _np.float32:
+        return BatchSimulator32(model, config, num_vehicles, num_threads)
+    raise ValueError(f"BatchSimulator: dtype: expected float64 or float32, got {dtype}")

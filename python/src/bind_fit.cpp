@@ -5,7 +5,7 @@
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/identification/fit.hpp"
 #include "dronetwin/identification/flight_data.hpp"
-#include "dronetwin/identification/model_parameters.hpp"
+#include "dronetwin/model/model_parameters.hpp"
 
 namespace dronetwin::python {
 

@@ -74,6 +74,8 @@ void bind_sim(py::module_& m) {
              "Position, speed or rate beyond the divergence limits.")
       .value("INVALID_STATE", StepStatus::kInvalidState,
              "A state that cannot be integrated (a zero quaternion written into the view).")
+      .value("INVALID_INPUT", StepStatus::kInvalidInput,
+             "A batch lane's rotor-speed reference or wind was not finite.")
       .value("CONTROLLER_FAILED", StepStatus::kControllerFailed,
              "The controller threw or returned non-finite output (ClosedLoop.failure_message).");
 

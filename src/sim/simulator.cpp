@@ -232,6 +232,8 @@ std::string Simulator::failure_message() const {
     case StepStatus::kInvalidState:
       return detail::concat("the state became invalid at t = ", f.time_s, " s (step ", f.step,
                             "): its quaternion is not a rotation");
+    case StepStatus::kInvalidInput:
+      return "an input was not finite";
   }
   return {};
 }
@@ -247,15 +249,10 @@ StepResult Simulator::step_unchecked() {
                           "); call reset() first");
   }
   // Rotor speeds are held over the step: do their part of the force model once.
-  const ForceKernel<double>& kernel = *kernel_;
-  HeldRotorTerms<double> held;
-  kernel.prepare(data_.rotor_speed_rad_s, held);
   const Environment& env = config_.environment;
-  const auto f = [&kernel, &held, &env](const StateVector& x) {
-    return kernel.derivative(held, x, env);
-  };
-  StateVector next = integrate_step(config_.integrator, data_.state, config_.dt_s, f);
-  normalize_quaternion(next);
+  StateVector next =
+      held_rotor_step(*kernel_, config_.integrator, data_.state, data_.rotor_speed_rad_s,
+                      env.wind_W_m_s, env.gravity_W_m_s2, config_.dt_s);
   // Contact is resolved on a copy: a refused step must not change it (nor anything else).
   ContactState contact = data_.contact;
   resolve_ground_contact(config_.ground, data_.state, config_.dt_s, next, contact);

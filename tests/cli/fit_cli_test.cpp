@@ -16,7 +16,7 @@
 #include <string>
 
 #include "dronetwin/config/model_loader.hpp"
-#include "dronetwin/identification/model_parameters.hpp"
+#include "dronetwin/model/model_parameters.hpp"
 #include "test_support.hpp"
 
 namespace dronetwin {

@@ -36,9 +36,9 @@
 
 #include "dronetwin/app/run_experiment.hpp"
 #include "dronetwin/config/experiment.hpp"
-#include "dronetwin/identification/model_parameters.hpp"
 #include "dronetwin/logging/csv_log.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "dronetwin/model/model_parameters.hpp"
 #include "dronetwin/noise/random.hpp"
 #include "test_support.hpp"
 

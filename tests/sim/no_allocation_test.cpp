@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <new>
 
+#include "dronetwin/batch/batch_simulator.hpp"
 #include "dronetwin/sim/simulator.hpp"
 #include "test_support.hpp"
 
@@ -53,6 +54,33 @@ TEST(NoAllocation, SteppingDoesNotAllocate) {
     (void)sink;
   }
   EXPECT_EQ(g_allocations.load() - before, 0);
+}
+
+// The batch (issue: no allocation per step): stepping with two threads, parameters changed
+// between steps (the packs are rebuilt in place), lanes failing and reset.
+TEST(NoAllocation, BatchSteppingDoesNotAllocate) {
+  const auto model = test::load_model("qdrone2");
+  BatchSimulator<double> batch(model, SimConfig{}, 100, 2);
+  BatchSimulator<float> single(model, SimConfig{}, 100, 2);
+  const StateVector hover = Simulator::hover_state(Vec3(0, 0, 1));
+  RotorVector ref = model->hover_speeds_rad_s();
+  for (int l = 0; l < 100; ++l) {
+    batch.reset(l, hover, ref);
+    single.reset(l, hover, ref);
+  }
+  const long before = g_allocations.load();
+  for (int k = 0; k < 200; ++k) {
+    batch.set_parameter(ModelParameter::kMass, k % 100, 1.5 + 0.001 * k);
+    batch.set_rotor_speed_reference(k % 100, ref);
+    batch.step(k % 3);
+    single.step(5);
+    if (k == 100) {
+      batch.state_data()[k % 100] = 1e300;  // fails that lane
+      batch.step(1);
+      batch.reset(k % 100, hover, ref);
+    }
+  }
+  EXPECT_EQ(g_allocations.load(), before);
 }
 
 }  // namespace

@@ -101,6 +101,13 @@ inline S exp(const S& x) {
   return exp(x);
 }
 
+/// Square root: std::sqrt for built-in types, found by argument-dependent lookup for the others.
+template <class S>
+inline S sqrt(const S& x) {
+  using std::sqrt;
+  return sqrt(x);
+}
+
 /// The machine number inside a scalar: S itself for double and float, T for a ceres::Jet<T, N>
 /// (its `Scalar`) and for a pack of T (its `value_type`). Constants that no fit differentiates and
 /// every lane shares (rotor positions and axes) are stored in this type.

@@ -28,6 +28,10 @@
 // S = ceres::Jet when a fit differentiates a logged state's prediction with respect to the
 // parameters). Instantiated with double, float, ceres::Jet and SIMD packs (core/simd.hpp).
 //
+// held_rotor_step() below is one physics step with it (held speeds, the integrator, the quaternion
+// projected back): the Simulator takes it with S = double, a BatchSimulator (batch/) with S = a
+// SIMD pack, W vehicles per instruction, each lane with its own parameters (docs/batch.md).
+//
 // Trap: the kernel copies the model's parameters; build a new one when the model or the term set
 // changes.
 
@@ -41,6 +45,8 @@
 #include "dronetwin/dynamics/rigid_body.hpp"
 #include "dronetwin/dynamics/rotor.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
+#include "dronetwin/integrators/integrator.hpp"
+#include "dronetwin/math/ordered_product.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
 
@@ -141,9 +147,10 @@ class ForceKernel {
                                          const Matrix3<X>& R, const Vector3<V>& wind_W) const {
     using namespace state_index;
     Vector6<X> air_and_rate;
-    air_and_rate.template head<3>() = R.transpose() * (x.template segment<3>(kVelocity) - wind_W);
+    const Vector3<X> air_W = x.template segment<3>(kVelocity) - wind_W;
+    air_and_rate.template head<3>() = math::ordered_product(R.transpose(), air_W);
     air_and_rate.template tail<3>() = x.template segment<3>(kAngularVelocity);
-    Vector6<S> w = held.constant + held.velocity_map * air_and_rate;
+    Vector6<S> w = held.constant + math::ordered_product(held.velocity_map, air_and_rate);
     if (terms_.gyroscopic) {
       w.template tail<3>() +=
           gyroscopic_moment(air_and_rate.template tail<3>(), held.rotor_momentum_B);
@@ -151,7 +158,9 @@ class ForceKernel {
     if (terms_.ground_effect) {
       const X z = x[kPosition + 2];
       for (int i = 0; i < num_rotors_; ++i) {
-        const X hub_height = z + R.row(2).dot(rotor_position_.col(i).template cast<X>());
+        const X hub_height =
+            z + ((R(2, 0) * rotor_position_(0, i) + R(2, 1) * rotor_position_(1, i)) +
+                 R(2, 2) * rotor_position_(2, i));
         const S f = ground_effect_force(held.ground_gain[static_cast<std::size_t>(i)], hub_height,
                                         ground_min_height_m_);
         w += f * ground_direction_.col(i);  // along [a_i; r_i x a_i]
@@ -202,5 +211,23 @@ class ForceKernel {
   Eigen::Matrix<Value, 3, kMaxRotors> rotor_position_;
   Eigen::Matrix<Value, 6, kMaxRotors> ground_direction_;
 };
+
+/// One physics step with the rotor speeds held (thesis Alg. 1-2): the held-rotor terms once, the
+/// integrator's stages through the kernel, and the quaternion projected back onto the unit sphere.
+/// Ground contact, motors and the validity checks are the caller's (the simulators).
+template <class S, class Speeds>
+DRONETWIN_HOT_INLINE StateVectorT<S> held_rotor_step(
+    const ForceKernel<S>& kernel, Integrator method, const StateVectorT<S>& x,
+    const Speeds& rotor_speeds_rad_s, const Vector3<S>& wind_W_m_s,
+    const Vector3<scalar::value_type_t<S>>& gravity_W_m_s2, double dt_s) {
+  HeldRotorTerms<S> held;
+  kernel.prepare(rotor_speeds_rad_s, held);
+  const auto f = [&](const StateVectorT<S>& y) {
+    return kernel.derivative(held, y, wind_W_m_s, gravity_W_m_s2);
+  };
+  StateVectorT<S> next = integrate_step(method, x, dt_s, f);
+  normalize_quaternion(next);
+  return next;
+}
 
 }  // namespace dronetwin

@@ -13,7 +13,9 @@
 
 #include <type_traits>
 
+#include "dronetwin/core/scalar.hpp"
 #include "dronetwin/core/types.hpp"
+#include "dronetwin/math/ordered_product.hpp"
 #include "dronetwin/math/quaternion.hpp"
 
 namespace dronetwin {
@@ -46,8 +48,9 @@ template <class S, class X, class J>
 DRONETWIN_HOT_INLINE Vector3<S> angular_acceleration(const Matrix3<J>& inertia,
                                                      const Matrix3<J>& inertia_inv,
                                                      const Vector3<X>& w_B, const Vector3<S>& M_B) {
-  const Vector3<S> Jw = inertia * w_B;
-  return inertia_inv * (M_B - w_B.cross(Jw));
+  const Vector3<S> Jw = math::ordered_product(inertia, w_B);
+  const Vector3<S> net = M_B - w_B.cross(Jw);
+  return math::ordered_product(inertia_inv, net);
 }
 
 /// angular_acceleration() for a diagonal inertia J = diag(j), J^-1 = diag(j_inv): the same
@@ -72,7 +75,7 @@ DRONETWIN_HOT_INLINE StateVectorT<S> newton_euler(const StateVectorT<X>& x, cons
   const Vector3<X> w = x.template segment<3>(kAngularVelocity);
   StateVectorT<S> d;
   detail::kinematics(x, w, d);
-  d.template segment<3>(kVelocity) = R * F_B / mass_kg + gravity_W;
+  d.template segment<3>(kVelocity) = math::ordered_product(R, F_B) / mass_kg + gravity_W;
   d.template segment<3>(kAngularVelocity) = angular_acceleration(inertia, inertia_inv, w, M_B);
   return d;
 }
@@ -86,14 +89,24 @@ DRONETWIN_HOT_INLINE StateVectorT<S> newton_euler_diagonal_inertia(
   const Vector3<X> w = x.template segment<3>(kAngularVelocity);
   StateVectorT<S> d;
   detail::kinematics(x, w, d);
-  d.template segment<3>(kVelocity) = R * F_B / mass_kg + gravity_W;
+  d.template segment<3>(kVelocity) = math::ordered_product(R, F_B) / mass_kg + gravity_W;
   d.template segment<3>(kAngularVelocity) = angular_acceleration_diagonal(j, j_inv, w, M_B);
   return d;
 }
 
-/// Projects the quaternion block back onto the unit sphere (drift from integration).
-inline void normalize_quaternion(StateVector& x) {
-  x.segment<4>(state_index::kQuaternion).normalize();
+/// Projects the quaternion block back onto the unit sphere (drift from integration). As Eigen's
+/// normalize(): divided by its norm when that is positive; a zero quaternion stays zero (the
+/// simulator refuses it). Written out so a double and a SIMD pack sum the squares in one order.
+template <class X>
+DRONETWIN_HOT_INLINE void normalize_quaternion(StateVectorT<X>& x) {
+  using namespace state_index;
+  using V = scalar::value_type_t<X>;
+  const X q0 = x[kQuaternion], q1 = x[kQuaternion + 1], q2 = x[kQuaternion + 2],
+          q3 = x[kQuaternion + 3];
+  const X n2 = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3;
+  const auto positive = V(0) < n2;
+  const X norm = scalar::select(positive, scalar::sqrt(n2), X(V(1)));
+  for (int k = 0; k < 4; ++k) x[kQuaternion + k] = x[kQuaternion + k] / norm;
 }
 
 /// Rotational kinetic energy 1/2 w^T J w (for tests).

@@ -61,7 +61,7 @@
 #include "dronetwin/dynamics/environment.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
 #include "dronetwin/identification/flight_data.hpp"
-#include "dronetwin/identification/model_parameters.hpp"
+#include "dronetwin/model/model_parameters.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
 
 namespace dronetwin {

@@ -18,7 +18,7 @@
 #include <array>
 
 #include "dronetwin/core/types.hpp"
-#include "dronetwin/identification/model_parameters.hpp"
+#include "dronetwin/model/model_parameters.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
 
 namespace dronetwin {

@@ -8,6 +8,7 @@
 
 #include <string_view>
 
+#include "dronetwin/core/scalar.hpp"
 #include "dronetwin/core/types.hpp"
 
 namespace dronetwin {
@@ -19,26 +20,31 @@ constexpr std::string_view integrator_name(Integrator i) {
 }
 
 /// Classical fourth-order Runge-Kutta: global error O(dt^4).
+/// The state's scalar may be a SIMD pack (one vehicle per lane); the step size is then taken in
+/// the pack's lane type (float for a float batch), so double and pack steps do the same arithmetic.
 template <class Vector, class F>
-Vector rk4_step(const Vector& x, double dt, F&& f) {
+Vector rk4_step(const Vector& x, double dt_s, F&& f) {
+  using V = scalar::value_type_t<typename Vector::Scalar>;
+  const V dt = static_cast<V>(dt_s);
   const Vector k1 = f(x);
-  const Vector k2 = f(Vector(x + (0.5 * dt) * k1));
-  const Vector k3 = f(Vector(x + (0.5 * dt) * k2));
+  const Vector k2 = f(Vector(x + (V(0.5) * dt) * k1));
+  const Vector k3 = f(Vector(x + (V(0.5) * dt) * k2));
   const Vector k4 = f(Vector(x + dt * k3));
   // Element by element, the same operations in the same order as the vector expression
   // x + (dt / 6) (k1 + 2 (k2 + k3) + k4): written out, GCC keeps it inline in the simulator's
   // step, where the expression's evaluator was sometimes outlined (a call per packet).
-  const double sixth = dt / 6.0;
+  const V sixth = dt / V(6);
   Vector next = x;
   for (Eigen::Index i = 0; i < x.size(); ++i)
-    next[i] = x[i] + sixth * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
+    next[i] = x[i] + sixth * (k1[i] + V(2) * (k2[i] + k3[i]) + k4[i]);
   return next;
 }
 
 /// Explicit (forward) Euler: global error O(dt).
 template <class Vector, class F>
-Vector euler_step(const Vector& x, double dt, F&& f) {
-  return x + dt * f(x);
+Vector euler_step(const Vector& x, double dt_s, F&& f) {
+  using V = scalar::value_type_t<typename Vector::Scalar>;
+  return x + static_cast<V>(dt_s) * f(x);
 }
 
 template <class Vector, class F>

@@ -55,6 +55,7 @@ enum class StepStatus {
   kDiverged,          ///< position, speed or angular speed beyond SimConfig::divergence
   kControllerFailed,  ///< the controller flying it threw or returned non-finite output
   kInvalidState,      ///< a state that cannot be integrated (a zero quaternion)
+  kInvalidInput,      ///< a batch lane's rotor-speed reference or wind was not finite
 };
 
 constexpr std::string_view status_name(StepStatus s) {
@@ -69,6 +70,8 @@ constexpr std::string_view status_name(StepStatus s) {
       return "controller_failed";
     case StepStatus::kInvalidState:
       return "invalid_state";
+    case StepStatus::kInvalidInput:
+      return "invalid_input";
   }
   return "unknown";
 }

@@ -1,7 +1,9 @@
-// Names, units and VehicleSpec access of the identifiable parameters (model_parameters.hpp).
-#include "dronetwin/identification/model_parameters.hpp"
+// Names, units and VehicleSpec / VehicleParametersTpl access of the identifiable parameters
+// (model_parameters.hpp).
+#include "dronetwin/model/model_parameters.hpp"
 
 #include <cmath>
+#include <span>
 
 #include "dronetwin/core/error.hpp"
 
@@ -153,26 +155,57 @@ std::vector<ModelParameter> parse_parameter_list(std::string_view list) {
   return out;
 }
 
-double parameter_value(const VehicleSpec& spec, ModelParameter p) {
-  if (const double* v = body_field(spec, p)) return *v;
-  require(!spec.rotors.empty(), spec.source, ": model has no rotors");
-  double sum = 0.0;
-  for (const RotorParams& r : spec.rotors) sum += *rotor_field(r, p);
-  return sum / static_cast<double>(spec.rotors.size());
+namespace {
+// The rotors of a spec (all of them) or of parameters (the first num_rotors).
+std::span<const RotorParams> rotors_of(const VehicleSpec& s) { return s.rotors; }
+std::span<RotorParams> rotors_of(VehicleSpec& s) { return s.rotors; }
+std::span<const RotorParams> rotors_of(const VehicleParametersTpl<double>& s) {
+  return {s.rotors.data(), static_cast<std::size_t>(s.num_rotors)};
+}
+std::span<RotorParams> rotors_of(VehicleParametersTpl<double>& s) {
+  return {s.rotors.data(), static_cast<std::size_t>(s.num_rotors)};
 }
 
-void set_parameter_value(VehicleSpec& spec, ModelParameter p, double value) {
+template <class Spec>
+double value_in(const Spec& spec, ModelParameter p, std::string_view source) {
+  if (const double* v = body_field(spec, p)) return *v;
+  const auto rotors = rotors_of(spec);
+  require(!rotors.empty(), source, ": model has no rotors");
+  double sum = 0.0;
+  for (const RotorParams& r : rotors) sum += *rotor_field(r, p);
+  return sum / static_cast<double>(rotors.size());
+}
+
+template <class Spec>
+void set_value_in(Spec& spec, ModelParameter p, double value, std::string_view source) {
   require(std::isfinite(value), "set_parameter_value: ", parameter_name(p), " = ", value,
           " is not finite");
   if (double* v = body_field(spec, p)) {
     *v = value;
     return;
   }
-  const double mean = parameter_value(spec, p);
-  for (RotorParams& r : spec.rotors) {
+  const double mean = value_in(spec, p, source);
+  for (RotorParams& r : rotors_of(spec)) {
     double* f = rotor_field(r, p);
     *f = mean != 0.0 ? *f * (value / mean) : value;
   }
+}
+}  // namespace
+
+double parameter_value(const VehicleSpec& spec, ModelParameter p) {
+  return value_in(spec, p, spec.source);
+}
+
+void set_parameter_value(VehicleSpec& spec, ModelParameter p, double value) {
+  set_value_in(spec, p, value, spec.source);
+}
+
+double parameter_value(const VehicleParametersTpl<double>& parameters, ModelParameter p) {
+  return value_in(parameters, p, "vehicle parameters");
+}
+
+void set_parameter_value(VehicleParametersTpl<double>& parameters, ModelParameter p, double value) {
+  set_value_in(parameters, p, value, "vehicle parameters");
 }
 
 }  // namespace dronetwin

@@ -1,6 +1,7 @@
 #pragma once
 // The vehicle-model parameters that `dronetwin fit` can identify, by name, and how a fit reads
-// them from and writes them into a VehicleSpec.
+// them from and writes them into a VehicleSpec (or the parameters of a built model: a batch
+// varies them per lane, batch/batch_simulator.hpp).
 //
 //   std::vector<ModelParameter> p = parse_parameter_list("thrust,body_drag,mass");
 //   double k1 = parameter_value(spec, ModelParameter::kThrustK1);       // mean over rotors
@@ -72,5 +73,9 @@ double parameter_value(const VehicleSpec& spec, ModelParameter p);
 /// Writes `value` into `spec`: per-rotor coefficients are scaled so that their mean becomes
 /// `value` (all set to it when the mean is 0).
 void set_parameter_value(VehicleSpec& spec, ModelParameter p, double value);
+
+/// The same two on the parameters of a built model (what a batch lane varies).
+double parameter_value(const VehicleParametersTpl<double>& parameters, ModelParameter p);
+void set_parameter_value(VehicleParametersTpl<double>& parameters, ModelParameter p, double value);
 
 }  // namespace dronetwin

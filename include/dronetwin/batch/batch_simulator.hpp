@@ -1,0 +1,197 @@
+#pragma once
+// BatchSimulator<T>: N vehicles of one airframe stepped together, for reinforcement learning,
+// Monte-Carlo studies and sweeps. Every lane is the Simulator's vehicle (the same force kernel,
+// integrator, motor lag and ground contact; in double a lane equals a Simulator run to round-off,
+// tests/batch), with its own state, rotor speeds, wind and parameters.
+//
+//   auto model = std::make_shared<const VehicleModel>(load_vehicle_model("models/qdrone2.yaml"));
+//   BatchSimulator<double> batch(model, SimConfig{}, 4096, /*num_threads=*/2);
+//   batch.set_parameter(ModelParameter::kMass, 17, 1.6);      // lane 17 is heavier
+//   for (int lane = 0; lane < batch.size(); ++lane)
+//     batch.reset(lane, Simulator::hover_state({0, 0, 1}), model->hover_speeds_rad_s());
+//   batch.step(1000);                                          // 1 s for every vehicle
+//   double z = batch.state_at(state_index::kPosition + 2, 17);
+//
+// Layout: structure of arrays. Element k of lane l's state is state_data()[k * stride() + l],
+// stride() >= size() a multiple of the pack width; rotor speeds, references and wind likewise.
+// The arrays are plain memory the caller may read and write between steps (Python views them as
+// (N, 13) arrays); a step checks what it reads and refuses a lane whose inputs are not valid.
+//
+// How a step runs: lanes are grouped in packs of kLanes (core/simd.hpp); the force kernel is
+// instantiated on the pack, so one instruction steps kLanes vehicles, each with the parameters of
+// its lane (ForceKernel<Pack<T, kLanes>>, one per pack, rebuilt when a parameter changes). Chunks
+// of packs are spread over a persistent thread pool. Branches on the state become per-lane
+// selects: motor rise/fall and clamping, the validity checks; ground contact takes the
+// Simulator's own contact rule for the lanes that touch the ground (an exact per-lane path, rare
+// in flight). step(n) keeps each pack in registers for all n steps.
+//
+// Per lane status: a lane whose step fails (non-finite, diverged, a zero quaternion, or invalid
+// inputs written into the arrays) keeps its last good state, stops, and reports why in
+// status(lane); the other lanes go on. reset(lane, ...) revives it. Nothing throws in the loop.
+//
+// Determinism: a lane's result depends only on its own inputs, never on N, its position in the
+// batch, the pack width or the number of threads (tests/batch: bitwise across 1 and 2 threads and
+// batch sizes 1, 7 and 1024).
+//
+// Not yet: OU noise (a per-lane counter-based stream) and batched inner-loop controllers; a config
+// with noise enabled is refused.
+//
+// Trap: one BatchSimulator is stepped by one thread at a time (it says so, SimulationError, if
+// two try); its own pool does the parallel work.
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "dronetwin/batch/thread_pool.hpp"
+#include "dronetwin/core/simd.hpp"
+#include "dronetwin/core/single_thread.hpp"
+#include "dronetwin/dynamics/force_kernel.hpp"
+#include "dronetwin/dynamics/ground.hpp"
+#include "dronetwin/model/allocation.hpp"
+#include "dronetwin/model/model_parameters.hpp"
+#include "dronetwin/sim/simulator.hpp"
+
+namespace dronetwin {
+
+/// Lanes per pack: at least 4 doubles or 8 floats, wider where the build's registers are (8
+/// doubles with AVX-512). Results do not depend on it.
+template <class T>
+inline constexpr int kBatchLanes = static_cast<int>(stdx::native_simd<T>::size() > 32 / sizeof(T)
+                                                        ? stdx::native_simd<T>::size()
+                                                        : 32 / sizeof(T));
+
+/// Memory for the batch's arrays, aligned for pack loads (64 bytes).
+template <class T>
+class AlignedArray {
+ public:
+  AlignedArray() = default;
+  explicit AlignedArray(std::size_t n, T value = T(0));
+  AlignedArray(const AlignedArray&) = delete;
+  AlignedArray& operator=(const AlignedArray&) = delete;
+  AlignedArray(AlignedArray&& o) noexcept : data_(o.data_), size_(o.size_) {
+    o.data_ = nullptr;
+    o.size_ = 0;
+  }
+  AlignedArray& operator=(AlignedArray&& o) noexcept;
+  ~AlignedArray();
+  T* data() { return data_; }
+  const T* data() const { return data_; }
+  std::size_t size() const { return size_; }
+  T& operator[](std::size_t i) { return data_[i]; }
+  const T& operator[](std::size_t i) const { return data_[i]; }
+
+ private:
+  T* data_ = nullptr;
+  std::size_t size_ = 0;
+};
+
+template <class T>
+class BatchSimulator {
+ public:
+  static constexpr int kLanes = kBatchLanes<T>;
+  using Lanes = Pack<T, kLanes>;
+
+  /// `num_vehicles` lanes of `model` under `config` (as a Simulator's: dt, integrator, motor lag,
+  /// disturbance switches, gravity, wind for every lane, ground, divergence limits), stepped by
+  /// `num_threads` threads (the caller and num_threads - 1 workers). Every lane starts at rest on
+  /// the ground at the origin, rotors stopped. Throws InvalidArgument for a bad config, sizes, or
+  /// noise enabled (not supported by the batch yet).
+  BatchSimulator(std::shared_ptr<const VehicleModel> model, SimConfig config, int num_vehicles,
+                 int num_threads = 1);
+
+  int size() const { return num_vehicles_; }
+  /// Distance between one state element of consecutive... lanes' arrays: element k of lane l is at
+  /// [k * stride() + l].
+  int stride() const { return stride_; }
+  int num_rotors() const { return model_->num_rotors(); }
+  int num_threads() const { return pool_->num_threads(); }
+  const VehicleModel& model() const { return *model_; }
+  const SimConfig& config() const { return config_; }
+  double dt_s() const { return config_.dt_s; }
+
+  /// Steps every running lane `n` times (n >= 0). A lane that fails stops at its last good state
+  /// (status(lane)); the others go on. Returns the number of lanes that are not ok afterwards.
+  int step(std::int64_t n = 1);
+
+  /// Puts lane `lane` at `state` (validated and normalised as Simulator::set_state) with rotor
+  /// speeds and references `rotor_speeds_rad_s` (clamped; zero when omitted), contact and status
+  /// cleared, its step count zero.
+  void reset(int lane, const StateVector& state);
+  void reset(int lane, const StateVector& state, const RotorVector& rotor_speeds_rad_s);
+  /// reset() of every lane whose mask entry is non-zero (mask of size() entries), from rows of
+  /// `states` (size() x 13, row-major) and `rotor_speeds` (size() x num_rotors, row-major).
+  void reset_where(const std::uint8_t* mask, const double* states, const double* rotor_speeds);
+
+  StateVector state(int lane) const;
+  T state_at(int element, int lane) const {
+    return state_[static_cast<std::size_t>(element) * stride_ + lane];
+  }
+  RotorVector rotor_speeds(int lane) const;
+  void set_rotor_speed_reference(int lane, const RotorVector& reference_rad_s);
+  /// Rotor references from generalized forces u = [T, tau_x, tau_y, tau_z] through the nominal
+  /// model's allocation (model/allocation.hpp).
+  void set_generalized_force(int lane, const GeneralizedForce& u,
+                             AllocationMethod method = AllocationMethod::kExact);
+  void set_wind(int lane, const Vec3& wind_W_m_s);
+
+  /// Per-lane model parameters (names of model/model_parameters.hpp): a per-rotor coefficient is
+  /// scaled in every rotor of the lane so that their mean becomes `value`, as `dronetwin fit`
+  /// writes it. Throws InvalidArgument for a bad lane or a value that is not finite and positive
+  /// where it must be (mass, inertia, time constants >= 0).
+  void set_parameter(ModelParameter p, int lane, double value);
+  double parameter(ModelParameter p, int lane) const;
+
+  StepStatus status(int lane) const { return static_cast<StepStatus>(status_[lane_index(lane)]); }
+  const std::uint8_t* status_data() const { return status_.data(); }
+  std::int64_t step_count(int lane) const { return step_count_[lane_index(lane)]; }
+  const std::int64_t* step_count_data() const { return step_count_.data(); }
+  const ContactState& contact(int lane) const { return contact_[lane_index(lane)]; }
+
+  /// The arrays (structure of arrays, see the top of this file). Writable between steps.
+  T* state_data() { return state_.data(); }
+  const T* state_data() const { return state_.data(); }
+  T* rotor_speed_data() { return rotor_speed_.data(); }
+  T* rotor_speed_reference_data() { return rotor_reference_.data(); }
+  T* wind_data() { return wind_.data(); }
+
+  /// Changes the number of threads (rebuilds the pool; results are unchanged).
+  void set_num_threads(int num_threads);
+
+ private:
+  std::size_t lane_index(int lane) const;
+  void rebuild_pack(int pack);
+  void step_pack(int pack, std::int64_t n);
+  void check_inputs(int pack);
+
+  std::shared_ptr<const VehicleModel> model_;
+  SimConfig config_;
+  ForceTerms terms_;
+  int num_vehicles_ = 0;
+  int num_packs_ = 0;
+  int stride_ = 0;
+  std::unique_ptr<ThreadPool> pool_;
+
+  AlignedArray<T> state_, rotor_speed_, rotor_reference_, wind_;
+  std::vector<std::uint8_t> status_;
+  std::vector<std::int64_t> step_count_;
+  std::vector<ContactState> contact_;
+
+  // Parameters: one value per parameter and lane; a pack whose lanes changed is rebuilt before
+  // the next step.
+  std::vector<double> parameters_;  // [parameter * stride + lane]
+  std::array<double, kNumModelParameters> nominal_{};
+  std::vector<ForceKernel<Lanes>> kernels_;
+  struct MotorDecay {
+    std::array<Lanes, kMaxRotors> rise{}, fall{};
+  };
+  std::vector<MotorDecay> decays_;
+  std::vector<std::uint8_t> pack_dirty_;
+  bool any_dirty_ = false;
+  SingleThreadGuard guard_;
+};
+
+extern template class BatchSimulator<double>;
+extern template class BatchSimulator<float>;
+
+}  // namespace dronetwin

@@ -1,0 +1,270 @@
+// Bindings of the batched engine: BatchSimulator in float64 and float32 (the Python function
+// dronetwin.BatchSimulator picks one by dtype).
+//
+// The state, rotor speeds, references and wind are numpy views onto the C++ arrays (no copy; the
+// view keeps the batch alive): `state` is an (N, 13) array whose rows are the lanes, laid out as
+// structure of arrays underneath (strides (itemsize, stride * itemsize)), so writing a column for
+// every lane is one contiguous store. Writes act on the next step, which checks them per lane.
+
+#include <pybind11/pybind11.h>
+
+#include <string>
+
+#include "bindings.hpp"
+#include "dronetwin/batch/batch_simulator.hpp"
+
+namespace dronetwin::python {
+
+namespace {
+
+template <class T>
+py::array_t<T> lane_view(BatchSimulator<T>& b, T* data, py::ssize_t columns, py::handle owner,
+                         bool writable) {
+  const auto item = static_cast<py::ssize_t>(sizeof(T));
+  py::array_t<T> a({static_cast<py::ssize_t>(b.size()), columns},
+                   {item, static_cast<py::ssize_t>(b.stride()) * item}, data, owner);
+  if (!writable)
+    py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+  return a;
+}
+
+ModelParameter parameter_named(const std::string& name) {
+  const std::vector<ModelParameter> p = parse_parameter_list(name);
+  if (p.size() != 1)
+    throw py::value_error("BatchSimulator: '" + name + "' names a group of " +
+                          std::to_string(p.size()) + " parameters; give one (e.g. thrust_k1)");
+  return p.front();
+}
+
+/// The lanes a call addresses: None (all), an int, a sequence of ints, or a bool mask of N.
+std::vector<int> lanes_of(py::handle lanes, int n, const char* what) {
+  std::vector<int> out;
+  if (lanes.is_none()) {
+    for (int l = 0; l < n; ++l) out.push_back(l);
+    return out;
+  }
+  if (py::isinstance<py::int_>(lanes)) {
+    out.push_back(lanes.cast<int>());
+    return out;
+  }
+  py::array a = py::array::ensure(lanes);
+  if (!a || a.ndim() != 1) {
+    throw py::type_error(std::string(what) +
+                         ": lanes: expected None, an int, a 1-D sequence of ints or a bool mask "
+                         "of the batch size, got " +
+                         describe_object(lanes));
+  }
+  if (a.dtype().kind() == 'b') {
+    if (a.shape(0) != n)
+      throw py::value_error(std::string(what) + ": lanes: a bool mask must have " +
+                            std::to_string(n) + " entries (one per lane), got " +
+                            std::to_string(a.shape(0)));
+    auto m = py::array_t<bool, py::array::c_style | py::array::forcecast>::ensure(a);
+    for (int l = 0; l < n; ++l)
+      if (m.at(l)) out.push_back(l);
+    return out;
+  }
+  if (a.dtype().kind() != 'i' && a.dtype().kind() != 'u')
+    throw py::type_error(std::string(what) + ": lanes: expected integers or bools, got " +
+                         describe_object(lanes));
+  auto ints = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(a);
+  for (py::ssize_t i = 0; i < ints.shape(0); ++i) out.push_back(static_cast<int>(ints.at(i)));
+  return out;
+}
+
+/// Row `i` of a (k, cols) float64 array, or the one row of a (cols,) array for every i.
+Eigen::VectorXd row_of(const py::array_t<double, py::array::c_style | py::array::forcecast>& a,
+                       std::size_t i, int cols, std::size_t count, const char* what) {
+  if (a.ndim() == 1 && a.shape(0) == cols) {
+    return Eigen::Map<const Eigen::VectorXd>(a.data(), cols);
+  }
+  if (a.ndim() == 2 && a.shape(1) == cols && static_cast<std::size_t>(a.shape(0)) == count) {
+    return Eigen::Map<const Eigen::VectorXd>(a.data() + i * static_cast<std::size_t>(cols), cols);
+  }
+  throw py::value_error(std::string(what) + ": expected shape (" + std::to_string(cols) +
+                        ",) or (" + std::to_string(count) + ", " + std::to_string(cols) +
+                        ") (one row per lane addressed), got an array of " +
+                        std::to_string(a.ndim()) + " dimensions");
+}
+
+template <class T>
+void bind_one(py::module_& m, const char* class_name, const char* dtype) {
+  using B = BatchSimulator<T>;
+  py::class_<B>(
+      m, class_name,
+      (std::string("N vehicles stepped together in ") + dtype + " (see dronetwin.BatchSimulator).")
+          .c_str())
+      .def(py::init([](const std::shared_ptr<VehicleModel>& model, const SimConfig& config,
+                       int num_vehicles, int num_threads) {
+             if (!model) throw py::value_error("model: expected a VehicleModel, got None");
+             return std::make_unique<B>(model, config, num_vehicles, num_threads);
+           }),
+           py::arg("model"), py::arg("config"), py::arg("num_vehicles"), py::arg("num_threads") = 1)
+      .def("__len__", &B::size)
+      .def_property_readonly("size", &B::size)
+      .def_property_readonly("num_rotors", &B::num_rotors)
+      .def_property_readonly("num_threads", &B::num_threads)
+      .def_property_readonly("lanes_per_pack", [](const B&) { return B::kLanes; })
+      .def_property_readonly("dt_s", &B::dt_s)
+      .def_property_readonly(
+          "state",
+          [](py::object self) {
+            B& b = self.cast<B&>();
+            return lane_view<T>(b, b.state_data(), kStateSize, self, true);
+          },
+          "(N, 13) live view: one row per lane [x, y, z, vx, vy, vz, qw, qx, qy, qz, wx, wy, wz].")
+      .def_property_readonly(
+          "rotor_speeds",
+          [](py::object self) {
+            B& b = self.cast<B&>();
+            return lane_view<T>(b, b.rotor_speed_data(), b.num_rotors(), self, false);
+          },
+          "(N, rotors) read-only view of the rotor speeds, rad/s.")
+      .def_property_readonly(
+          "rotor_speed_reference",
+          [](py::object self) {
+            B& b = self.cast<B&>();
+            return lane_view<T>(b, b.rotor_speed_reference_data(), b.num_rotors(), self, true);
+          },
+          "(N, rotors) writable view of the rotor-speed references (clamped to the limits at "
+          "each step; a non-finite entry stops its lane with status INVALID_INPUT).")
+      .def_property_readonly(
+          "wind",
+          [](py::object self) {
+            B& b = self.cast<B&>();
+            return lane_view<T>(b, b.wind_data(), 3, self, true);
+          },
+          "(N, 3) writable view of each lane's wind, world frame, m/s.")
+      .def_property_readonly(
+          "status",
+          [](py::object self) {
+            const B& b = self.cast<const B&>();
+            py::array_t<std::uint8_t> a({static_cast<py::ssize_t>(b.size())}, {1}, b.status_data(),
+                                        self);
+            py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+            return a;
+          },
+          "(N,) uint8 read-only view: 0 while a lane is ok, else its StepStatus value.")
+      .def_property_readonly(
+          "step_count",
+          [](py::object self) {
+            const B& b = self.cast<const B&>();
+            py::array_t<std::int64_t> a({static_cast<py::ssize_t>(b.size())},
+                                        {static_cast<py::ssize_t>(sizeof(std::int64_t))},
+                                        b.step_count_data(), self);
+            py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+            return a;
+          },
+          "(N,) int64 read-only view: steps taken by each lane since its reset.")
+      .def(
+          "in_contact",
+          [](const B& b) {
+            py::array_t<bool> a(b.size());
+            for (int l = 0; l < b.size(); ++l) a.mutable_at(l) = b.contact(l).in_contact;
+            return a;
+          },
+          "(N,) bool: lanes resting on (or touching) the ground.")
+      .def(
+          "step",
+          [](B& b, std::int64_t n) {
+            if (n < 0)
+              throw py::value_error("BatchSimulator.step(n): expected n >= 0, got " +
+                                    std::to_string(n));
+            // Blocks of about 2^22 vehicle-steps (tens of ms) with the GIL released, Ctrl-C
+            // checked between them.
+            const std::int64_t block =
+                std::max<std::int64_t>(1, (std::int64_t{1} << 22) / b.size());
+            int failed = 0;
+            for (std::int64_t done = 0; done < n || n == 0;) {
+              const std::int64_t k = std::min(block, n - done);
+              {
+                py::gil_scoped_release release;
+                failed = b.step(k);
+              }
+              done += k;
+              if (n == 0) break;
+              if (done < n && PyErr_CheckSignals() != 0) throw py::error_already_set();
+            }
+            return failed;
+          },
+          py::arg("n") = 1,
+          "Steps every running lane n times (GIL released). Returns how many lanes are not ok.")
+      .def(
+          "reset",
+          [](B& b, py::handle lanes, py::handle states, py::handle rotor_speeds) {
+            const std::vector<int> which = lanes_of(lanes, b.size(), "BatchSimulator.reset");
+            const auto x =
+                py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(states);
+            if (!x) throw py::type_error("BatchSimulator.reset: states: expected numbers");
+            py::array_t<double, py::array::c_style | py::array::forcecast> w;
+            if (!rotor_speeds.is_none()) {
+              w = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(
+                  rotor_speeds);
+              if (!w) throw py::type_error("BatchSimulator.reset: rotor_speeds: expected numbers");
+            }
+            for (std::size_t i = 0; i < which.size(); ++i) {
+              const StateVector s =
+                  row_of(x, i, kStateSize, which.size(), "BatchSimulator.reset: states");
+              if (rotor_speeds.is_none()) {
+                b.reset(which[i], s);
+              } else {
+                b.reset(which[i], s,
+                        row_of(w, i, b.num_rotors(), which.size(),
+                               "BatchSimulator.reset: rotor_speeds"));
+              }
+            }
+          },
+          py::arg("lanes"), py::arg("states"), py::arg("rotor_speeds") = py::none(),
+          "Resets lanes (None = all, an int, a list of ints, or a bool mask) to states (one row "
+          "of 13, or one row per lane) and rotor speeds (rad/s; zero when omitted); clears their "
+          "status, contact and step count.")
+      .def(
+          "set_parameter",
+          [](B& b, const std::string& name, py::handle values, py::handle lanes) {
+            const ModelParameter p = parameter_named(name);
+            const std::vector<int> which =
+                lanes_of(lanes, b.size(), "BatchSimulator.set_parameter");
+            const auto v =
+                py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(values);
+            if (!v) throw py::type_error("BatchSimulator.set_parameter: values: expected numbers");
+            const bool one = v.ndim() == 0 || (v.ndim() == 1 && v.shape(0) == 1);
+            if (!one && !(v.ndim() == 1 && static_cast<std::size_t>(v.shape(0)) == which.size()))
+              throw py::value_error(
+                  "BatchSimulator.set_parameter: values: expected one number or " +
+                  std::to_string(which.size()) + " (one per lane addressed)");
+            for (std::size_t i = 0; i < which.size(); ++i)
+              b.set_parameter(p, which[i], one ? v.data()[0] : v.data()[i]);
+          },
+          py::arg("name"), py::arg("values"), py::arg("lanes") = py::none(),
+          "Sets a model parameter per lane (names of `dronetwin fit --params`: mass, inertia_xx, "
+          "thrust_k1, rotor_drag, tau_rise, ...); a per-rotor coefficient is scaled in every "
+          "rotor so their mean becomes the value.")
+      .def(
+          "parameter",
+          [](const B& b, const std::string& name) {
+            const ModelParameter p = parameter_named(name);
+            py::array_t<double> a(b.size());
+            for (int l = 0; l < b.size(); ++l) a.mutable_at(l) = b.parameter(p, l);
+            return a;
+          },
+          py::arg("name"), "(N,) float64: the parameter's value in every lane.")
+      .def(
+          "set_generalized_force",
+          [](B& b, int lane, py::handle u) {
+            b.set_generalized_force(lane,
+                                    to_fixed<4>(u, "BatchSimulator.set_generalized_force: u"));
+          },
+          py::arg("lane"), py::arg("u"),
+          "Rotor references of one lane from [T, tau_x, tau_y, tau_z] (the model's allocation).")
+      .def("set_num_threads", &B::set_num_threads, py::arg("num_threads"),
+           "Rebuilds the thread pool with num_threads threads (results do not change).");
+}
+
+}  // namespace
+
+void bind_batch(py::module_& m) {
+  bind_one<double>(m, "BatchSimulator64", "float64");
+  bind_one<float>(m, "BatchSimulator32", "float32");
+}
+
+}  // namespace dronetwin::python

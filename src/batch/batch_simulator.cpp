@@ -1,0 +1,539 @@
+#include "dronetwin/batch/batch_simulator.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <new>
+
+#include "dronetwin/core/error.hpp"
+#include "dronetwin/dynamics/motor.hpp"
+#include "dronetwin/model/allocation.hpp"
+
+namespace dronetwin {
+
+// ---- AlignedArray ----------------------------------------------------------------------------
+
+template <class T>
+AlignedArray<T>::AlignedArray(std::size_t n, T value) : size_(n) {
+  constexpr std::size_t kAlign = 64;
+  const std::size_t bytes = ((n * sizeof(T) + kAlign - 1) / kAlign) * kAlign;
+  data_ = static_cast<T*>(std::aligned_alloc(kAlign, bytes == 0 ? kAlign : bytes));
+  if (data_ == nullptr) throw std::bad_alloc();
+  for (std::size_t i = 0; i < n; ++i) data_[i] = value;
+}
+
+template <class T>
+AlignedArray<T>& AlignedArray<T>::operator=(AlignedArray&& o) noexcept {
+  if (this != &o) {
+    std::free(data_);
+    data_ = std::exchange(o.data_, nullptr);
+    size_ = std::exchange(o.size_, 0);
+  }
+  return *this;
+}
+
+template <class T>
+AlignedArray<T>::~AlignedArray() {
+  std::free(data_);
+}
+
+// ---- construction and per-lane access --------------------------------------------------------
+
+namespace {
+
+constexpr int kMaxVehicles = 1 << 24;
+
+/// Pack P from lanes base .. base + W of an array (the arrays are padded to whole packs).
+template <class P, class T>
+DRONETWIN_HOT_INLINE P load(const T* a) {
+  return P(a, stdx::vector_aligned);
+}
+template <class P, class T>
+DRONETWIN_HOT_INLINE void store(const P& p, T* a) {
+  p.copy_to(a, stdx::vector_aligned);
+}
+
+/// True in lanes where every value is finite.
+template <class P>
+DRONETWIN_HOT_INLINE auto finite(const P& x) {
+  using T = typename P::value_type;
+  return stdx::abs(x) <= P(std::numeric_limits<T>::max());
+}
+
+/// The parameters of W lanes, one value per lane, as one model of packs. Geometry, spins and
+/// speed limits are the airframe's and shared (lane 0's, the same in every lane).
+template <class P, std::size_t W>
+VehicleModelTpl<P> zip_lanes(const std::array<VehicleParametersTpl<double>, W>& lanes) {
+  VehicleParametersTpl<P> q;
+  using V = typename P::value_type;
+  const VehicleParametersTpl<double>& first = lanes[0];
+  auto pack = [&](auto field) { return pack_from<P>([&](int l) { return field(lanes[l]); }); };
+  q.num_rotors = first.num_rotors;
+  for (std::size_t i = 0; i < kMaxRotors; ++i) {
+    RotorParamsTpl<P>& r = q.rotors[i];
+    const RotorParams& r0 = first.rotors[i];
+    r.position_m = r0.position_m.template cast<V>();
+    r.axis = r0.axis.template cast<V>();
+    r.spin = r0.spin;
+    r.min_speed_rad_s = static_cast<V>(r0.min_speed_rad_s);
+    r.max_speed_rad_s = static_cast<V>(r0.max_speed_rad_s);
+    for (std::size_t k = 0; k < 3; ++k)
+      r.thrust_coefficients[k] =
+          pack([&](const auto& p) { return p.rotors[i].thrust_coefficients[k]; });
+    r.yaw_moment_per_thrust_m =
+        pack([&](const auto& p) { return p.rotors[i].yaw_moment_per_thrust_m; });
+    r.rotor_drag_coefficient =
+        pack([&](const auto& p) { return p.rotors[i].rotor_drag_coefficient; });
+    r.rolling_moment_coefficient =
+        pack([&](const auto& p) { return p.rotors[i].rolling_moment_coefficient; });
+    r.drag_moment_coefficient =
+        pack([&](const auto& p) { return p.rotors[i].drag_moment_coefficient; });
+    r.ground_effect_coefficient =
+        pack([&](const auto& p) { return p.rotors[i].ground_effect_coefficient; });
+    r.inertia_kgm2 = pack([&](const auto& p) { return p.rotors[i].inertia_kgm2; });
+    r.time_constant_rise_s = pack([&](const auto& p) { return p.rotors[i].time_constant_rise_s; });
+    r.time_constant_fall_s = pack([&](const auto& p) { return p.rotors[i].time_constant_fall_s; });
+  }
+  q.mass_kg = pack([](const auto& p) { return p.mass_kg; });
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) {
+      q.inertia_kgm2(a, b) = pack([&](const auto& p) { return p.inertia_kgm2(a, b); });
+      q.body_drag_Ns_per_m(a, b) = pack([&](const auto& p) { return p.body_drag_Ns_per_m(a, b); });
+    }
+  }
+  q.ground_effect_min_height_m = static_cast<V>(first.ground_effect_min_height_m);
+  return VehicleModelTpl<P>(std::move(q));
+}
+
+bool must_be_positive(ModelParameter p) {
+  return p == ModelParameter::kMass || p == ModelParameter::kInertiaXX ||
+         p == ModelParameter::kInertiaYY || p == ModelParameter::kInertiaZZ;
+}
+
+}  // namespace
+
+template <class T>
+BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, SimConfig config,
+                                  int num_vehicles, int num_threads)
+    : model_(std::move(model)), config_(std::move(config)) {
+  require(model_ != nullptr, "BatchSimulator: model is null");
+  validate(config_);
+  require(!config_.noise.enabled,
+          "BatchSimulator: noise.enabled: OU noise is not available in the batch yet; "
+          "set noise.enabled = false");
+  require(num_vehicles >= 1 && num_vehicles <= kMaxVehicles,
+          "BatchSimulator: num_vehicles: expected 1 to ", kMaxVehicles, ", got ", num_vehicles);
+  terms_ = ForceTerms::of(config_.disturbances);
+  num_vehicles_ = num_vehicles;
+  num_packs_ = (num_vehicles + kLanes - 1) / kLanes;
+  stride_ = num_packs_ * kLanes;
+  pool_ = std::make_unique<ThreadPool>(num_threads);
+
+  const auto n = static_cast<std::size_t>(stride_);
+  state_ = AlignedArray<T>(n * kStateSize);
+  rotor_speed_ = AlignedArray<T>(n * kMaxRotors);
+  rotor_reference_ = AlignedArray<T>(n * kMaxRotors);
+  wind_ = AlignedArray<T>(n * 3);
+  status_.assign(n, static_cast<std::uint8_t>(StepStatus::kOk));
+  step_count_.assign(n, 0);
+  contact_.assign(n, ContactState{});
+  for (std::size_t l = 0; l < n; ++l) {
+    for (int k = 0; k < 3; ++k)
+      wind_[k * n + l] = static_cast<T>(config_.environment.wind_W_m_s[k]);
+  }
+
+  for (int p = 0; p < kNumModelParameters; ++p)
+    nominal_[static_cast<std::size_t>(p)] =
+        parameter_value(model_->parameters(), static_cast<ModelParameter>(p));
+  parameters_.resize(static_cast<std::size_t>(kNumModelParameters) * n);
+  for (int p = 0; p < kNumModelParameters; ++p)
+    for (std::size_t l = 0; l < n; ++l)
+      parameters_[static_cast<std::size_t>(p) * n + l] = nominal_[static_cast<std::size_t>(p)];
+
+  kernels_.reserve(static_cast<std::size_t>(num_packs_));
+  decays_.resize(static_cast<std::size_t>(num_packs_));
+  pack_dirty_.assign(static_cast<std::size_t>(num_packs_), 0);
+  const ForceKernel<Lanes> nominal_kernel(model_->template cast<Lanes>(), terms_);
+  for (int c = 0; c < num_packs_; ++c) {
+    kernels_.push_back(nominal_kernel);
+    rebuild_pack(c);
+  }
+  // Padding lanes (beyond size()) hover-free at rest like the others and never report.
+  for (int lane = 0; lane < stride_; ++lane) {
+    const std::size_t l = static_cast<std::size_t>(lane);
+    state_[static_cast<std::size_t>(state_index::kQuaternion) * n + l] = T(1);
+    contact_[l].in_contact = config_.ground.enabled;
+  }
+}
+
+template <class T>
+std::size_t BatchSimulator<T>::lane_index(int lane) const {
+  require(lane >= 0 && lane < num_vehicles_, "BatchSimulator: lane ", lane,
+          " is out of range (the batch has ", num_vehicles_, " vehicles)");
+  return static_cast<std::size_t>(lane);
+}
+
+template <class T>
+void BatchSimulator<T>::set_num_threads(int num_threads) {
+  const SingleThreadGuard::Hold hold(guard_, "BatchSimulator::set_num_threads");
+  pool_ = std::make_unique<ThreadPool>(num_threads);
+}
+
+template <class T>
+void BatchSimulator<T>::rebuild_pack(int pack) {
+  std::array<VehicleParametersTpl<double>, kLanes> lanes;
+  const auto n = static_cast<std::size_t>(stride_);
+  for (int l = 0; l < kLanes; ++l) {
+    VehicleParametersTpl<double>& q = lanes[static_cast<std::size_t>(l)];
+    q = model_->parameters();
+    const std::size_t lane = static_cast<std::size_t>(pack * kLanes + l);
+    for (int p = 0; p < kNumModelParameters; ++p) {
+      const double v = parameters_[static_cast<std::size_t>(p) * n + lane];
+      // Only changed values are written: rescaling rotors to an unchanged mean could move them by
+      // a rounding step, and an untouched lane must be exactly the nominal vehicle.
+      if (v != nominal_[static_cast<std::size_t>(p)])
+        set_parameter_value(q, static_cast<ModelParameter>(p), v);
+    }
+  }
+  kernels_[static_cast<std::size_t>(pack)] = ForceKernel<Lanes>(zip_lanes<Lanes>(lanes), terms_);
+  MotorDecay& d = decays_[static_cast<std::size_t>(pack)];
+  for (int i = 0; i < model_->num_rotors(); ++i) {
+    const auto r = static_cast<std::size_t>(i);
+    // In double, as the Simulator's discretize_motors(), then rounded to T.
+    d.rise[r] = pack_from<Lanes>([&](int l) {
+      return motor_decay(lanes[static_cast<std::size_t>(l)].rotors[r].time_constant_rise_s,
+                         config_.dt_s);
+    });
+    d.fall[r] = pack_from<Lanes>([&](int l) {
+      return motor_decay(lanes[static_cast<std::size_t>(l)].rotors[r].time_constant_fall_s,
+                         config_.dt_s);
+    });
+  }
+  pack_dirty_[static_cast<std::size_t>(pack)] = 0;
+}
+
+template <class T>
+void BatchSimulator<T>::set_parameter(ModelParameter p, int lane, double value) {
+  const SingleThreadGuard::Hold hold(guard_, "BatchSimulator::set_parameter");
+  const std::size_t l = lane_index(lane);
+  require(std::isfinite(value), "BatchSimulator::set_parameter: ", parameter_name(p), "[lane ",
+          lane, "]: expected a finite number, got ", value);
+  if (must_be_positive(p)) {
+    require(value > 0.0, "BatchSimulator::set_parameter: ", parameter_name(p), "[lane ", lane,
+            "]: expected > 0, got ", value);
+  }
+  if (is_motor_parameter(p)) {
+    require(value >= 0.0, "BatchSimulator::set_parameter: ", parameter_name(p), "[lane ", lane,
+            "]: expected >= 0 s, got ", value);
+  }
+  double& slot = parameters_[static_cast<std::size_t>(p) * static_cast<std::size_t>(stride_) + l];
+  if (slot == value) return;
+  slot = value;
+  pack_dirty_[l / kLanes] = 1;
+  any_dirty_ = true;
+}
+
+template <class T>
+double BatchSimulator<T>::parameter(ModelParameter p, int lane) const {
+  return parameters_[static_cast<std::size_t>(p) * static_cast<std::size_t>(stride_) +
+                     lane_index(lane)];
+}
+
+template <class T>
+void BatchSimulator<T>::reset(int lane, const StateVector& state) {
+  reset(lane, state, RotorVector::Zero(model_->num_rotors()));
+}
+
+template <class T>
+void BatchSimulator<T>::reset(int lane, const StateVector& state,
+                              const RotorVector& rotor_speeds_rad_s) {
+  const SingleThreadGuard::Hold hold(guard_, "BatchSimulator::reset");
+  const std::size_t l = lane_index(lane);
+  require(rotor_speeds_rad_s.size() == model_->num_rotors(), "BatchSimulator::reset: lane ", lane,
+          ": rotor speeds: expected ", model_->num_rotors(), " values, got ",
+          rotor_speeds_rad_s.size());
+  for (int i = 0; i < kStateSize; ++i)
+    require(std::isfinite(state[i]), "BatchSimulator::reset: lane ", lane, ": state[", i,
+            "]: expected a finite number, got ", state[i]);
+  for (Eigen::Index i = 0; i < rotor_speeds_rad_s.size(); ++i)
+    require(std::isfinite(rotor_speeds_rad_s[i]), "BatchSimulator::reset: lane ", lane,
+            ": rotor speeds[", i, "]: expected a finite number, got ", rotor_speeds_rad_s[i]);
+  const double qn = state.segment<4>(state_index::kQuaternion).norm();
+  require(qn > 1e-9, "BatchSimulator::reset: lane ", lane,
+          ": state[6:10]: the quaternion must be non-zero (it is normalised), got norm ", qn);
+  require(!(config_.ground.enabled && state[state_index::kPosition + 2] < 0.0),
+          "BatchSimulator::reset: lane ", lane, ": state[2]: z = ", state[2],
+          " m is below the ground (z = 0); disable ground contact to start below it");
+  StateVector x = state;
+  normalize_quaternion(x);
+  const auto n = static_cast<std::size_t>(stride_);
+  for (int k = 0; k < kStateSize; ++k)
+    state_[static_cast<std::size_t>(k) * n + l] = static_cast<T>(x[k]);
+  for (int i = 0; i < model_->num_rotors(); ++i) {
+    const double w = clamp_speed(model_->rotor(i), rotor_speeds_rad_s[i]);
+    rotor_speed_[static_cast<std::size_t>(i) * n + l] = static_cast<T>(w);
+    rotor_reference_[static_cast<std::size_t>(i) * n + l] = static_cast<T>(w);
+  }
+  contact_[l] = ContactState{};
+  contact_[l].in_contact = config_.ground.enabled && x[state_index::kPosition + 2] <= 0.0;
+  status_[l] = static_cast<std::uint8_t>(StepStatus::kOk);
+  step_count_[l] = 0;
+}
+
+template <class T>
+void BatchSimulator<T>::reset_where(const std::uint8_t* mask, const double* states,
+                                    const double* rotor_speeds) {
+  const int nr = model_->num_rotors();
+  for (int lane = 0; lane < num_vehicles_; ++lane) {
+    if (mask[lane] == 0) continue;
+    const auto l = static_cast<std::size_t>(lane);
+    const StateVector x = Eigen::Map<const StateVector>(states + l * kStateSize);
+    const RotorVector w =
+        Eigen::Map<const Eigen::VectorXd>(rotor_speeds + l * static_cast<std::size_t>(nr), nr);
+    reset(lane, x, w);
+  }
+}
+
+template <class T>
+StateVector BatchSimulator<T>::state(int lane) const {
+  const std::size_t l = lane_index(lane);
+  StateVector x;
+  for (int k = 0; k < kStateSize; ++k)
+    x[k] = static_cast<double>(
+        state_[static_cast<std::size_t>(k) * static_cast<std::size_t>(stride_) + l]);
+  return x;
+}
+
+template <class T>
+RotorVector BatchSimulator<T>::rotor_speeds(int lane) const {
+  const std::size_t l = lane_index(lane);
+  RotorVector w(model_->num_rotors());
+  for (int i = 0; i < model_->num_rotors(); ++i)
+    w[i] = static_cast<double>(
+        rotor_speed_[static_cast<std::size_t>(i) * static_cast<std::size_t>(stride_) + l]);
+  return w;
+}
+
+template <class T>
+void BatchSimulator<T>::set_rotor_speed_reference(int lane, const RotorVector& reference_rad_s) {
+  const SingleThreadGuard::Hold hold(guard_, "BatchSimulator::set_rotor_speed_reference");
+  const std::size_t l = lane_index(lane);
+  require(reference_rad_s.size() == model_->num_rotors(),
+          "BatchSimulator::set_rotor_speed_reference: lane ", lane, ": expected ",
+          model_->num_rotors(), " values, got ", reference_rad_s.size());
+  for (int i = 0; i < model_->num_rotors(); ++i) {
+    require(std::isfinite(reference_rad_s[i]), "BatchSimulator::set_rotor_speed_reference: lane ",
+            lane, ": reference[", i, "]: expected a finite number, got ", reference_rad_s[i]);
+    rotor_reference_[static_cast<std::size_t>(i) * static_cast<std::size_t>(stride_) + l] =
+        static_cast<T>(reference_rad_s[i]);
+  }
+}
+
+template <class T>
+void BatchSimulator<T>::set_generalized_force(int lane, const GeneralizedForce& u,
+                                              AllocationMethod method) {
+  for (int i = 0; i < 4; ++i)
+    require(std::isfinite(u[i]), "BatchSimulator::set_generalized_force: lane ", lane,
+            ": [T, tau_x, tau_y, tau_z][", i, "]: expected a finite number, got ", u[i]);
+  set_rotor_speed_reference(lane, allocate(*model_, u, method).speeds_rad_s);
+}
+
+template <class T>
+void BatchSimulator<T>::set_wind(int lane, const Vec3& wind_W_m_s) {
+  const SingleThreadGuard::Hold hold(guard_, "BatchSimulator::set_wind");
+  const std::size_t l = lane_index(lane);
+  require(wind_W_m_s.allFinite(), "BatchSimulator::set_wind: lane ", lane,
+          ": expected finite numbers, got [", wind_W_m_s.transpose(), "]");
+  for (int k = 0; k < 3; ++k)
+    wind_[static_cast<std::size_t>(k) * static_cast<std::size_t>(stride_) + l] =
+        static_cast<T>(wind_W_m_s[k]);
+}
+
+// ---- stepping --------------------------------------------------------------------------------
+
+template <class T>
+int BatchSimulator<T>::step(std::int64_t n) {
+  const SingleThreadGuard::Hold hold(guard_, "BatchSimulator::step");
+  require(n >= 0, "BatchSimulator::step(n): expected n >= 0, got ", n);
+  if (any_dirty_) {
+    for (int c = 0; c < num_packs_; ++c)
+      if (pack_dirty_[static_cast<std::size_t>(c)] != 0) rebuild_pack(c);
+    any_dirty_ = false;
+  }
+  if (n > 0) {
+    // Tasks of a few packs each: enough of them to balance two threads, few enough to keep the
+    // hand-out cheap.
+    constexpr int kPacksPerTask = 4;
+    const int tasks = (num_packs_ + kPacksPerTask - 1) / kPacksPerTask;
+    pool_->run(tasks, [this, n](int task) {
+      const int end = std::min(num_packs_, (task + 1) * kPacksPerTask);
+      for (int c = task * kPacksPerTask; c < end; ++c) step_pack(c, n);
+    });
+  }
+  int failed = 0;
+  for (int l = 0; l < num_vehicles_; ++l)
+    failed += status_[static_cast<std::size_t>(l)] != static_cast<std::uint8_t>(StepStatus::kOk);
+  return failed;
+}
+
+namespace {
+
+/// Why a lane's step failed, as Simulator::check_state says it.
+StepStatus classify_failure(const StateVector& x) {
+  using namespace state_index;
+  if (!x.allFinite()) return StepStatus::kNonFinite;
+  const double q2 = x.segment<4>(kQuaternion).squaredNorm();
+  if (!(q2 >= 0.25 && q2 <= 4.0)) return StepStatus::kInvalidState;
+  return StepStatus::kDiverged;
+}
+
+template <class P>
+StateVector lane_state(const StateVectorT<P>& x, int l) {
+  StateVector out;
+  for (int k = 0; k < kStateSize; ++k) out[k] = static_cast<double>(lane(x[k], l));
+  return out;
+}
+
+}  // namespace
+
+// One pack of lanes, n steps, from the arrays and back. Flattened: GCC then inlines the whole
+// kernel (Eigen's loops over packs and the pack operators) instead of calling out per operation,
+// which is what makes the pack kernel faster than the scalar one (docs/batch.md).
+template <class T>
+[[gnu::flatten]] void BatchSimulator<T>::step_pack(int pack, std::int64_t n) {
+  using P = Lanes;
+  using M = typename P::mask_type;
+  using namespace state_index;
+  const std::size_t stride = static_cast<std::size_t>(stride_);
+  const std::size_t base = static_cast<std::size_t>(pack) * kLanes;
+  const int nr = model_->num_rotors();
+  const ForceKernel<P>& kernel = kernels_[static_cast<std::size_t>(pack)];
+  const MotorDecay& decay = decays_[static_cast<std::size_t>(pack)];
+
+  StateVectorT<P> x;
+  for (int k = 0; k < kStateSize; ++k) x[k] = load<P>(&state_[k * stride + base]);
+  std::array<P, kMaxRotors> speed{}, reference{};
+  for (int i = 0; i < nr; ++i) {
+    speed[static_cast<std::size_t>(i)] = load<P>(&rotor_speed_[i * stride + base]);
+    reference[static_cast<std::size_t>(i)] = load<P>(&rotor_reference_[i * stride + base]);
+  }
+  Vector3<P> wind;
+  for (int k = 0; k < 3; ++k) wind[k] = load<P>(&wind_[k * stride + base]);
+
+  // Which lanes run: ok so far, inside the batch, with valid inputs. A lane whose inputs were
+  // written invalid (through the arrays) stops here with a status and is not stepped.
+  // Lane flags as masks (a mask has no generator constructor; a pack of 0/1 does).
+  const auto mask_of = [&](auto&& flag) {
+    return P([&](auto l) { return flag(base + l) ? T(1) : T(0); }) == P(T(1));
+  };
+  M running = mask_of([&](std::size_t l) {
+    return l < static_cast<std::size_t>(num_vehicles_) &&
+           status_[l] == static_cast<std::uint8_t>(StepStatus::kOk);
+  });
+  {
+    M state_ok = M(true), input_ok = M(true);
+    for (int k = 0; k < kStateSize; ++k) state_ok = state_ok && finite(x[k]);
+    const P q2 = x[kQuaternion] * x[kQuaternion] + x[kQuaternion + 1] * x[kQuaternion + 1] +
+                 x[kQuaternion + 2] * x[kQuaternion + 2] + x[kQuaternion + 3] * x[kQuaternion + 3];
+    state_ok = state_ok && q2 >= P(T(0.25)) && q2 <= P(T(4));
+    for (int i = 0; i < nr; ++i) {
+      input_ok = input_ok && finite(reference[static_cast<std::size_t>(i)]) &&
+                 finite(speed[static_cast<std::size_t>(i)]);
+    }
+    for (int k = 0; k < 3; ++k) input_ok = input_ok && finite(wind[k]);
+    const M refused = running && !(state_ok && input_ok);
+    if (stdx::any_of(refused)) {
+      for (int l = 0; l < kLanes; ++l) {
+        if (!refused[l]) continue;
+        status_[base + l] = static_cast<std::uint8_t>(state_ok[l] ? StepStatus::kInvalidInput
+                                                                  : StepStatus::kInvalidState);
+      }
+      running = running && !refused;
+    }
+  }
+
+  const Vector3<T> gravity = config_.environment.gravity_W_m_s2.template cast<T>();
+  const DivergenceLimits& lim = config_.divergence;
+  const P max_p2(static_cast<T>(lim.max_position_m * lim.max_position_m));
+  const P max_v2(static_cast<T>(lim.max_speed_m_s * lim.max_speed_m_s));
+  const P max_w2(static_cast<T>(lim.max_angular_speed_rad_s * lim.max_angular_speed_rad_s));
+  const bool ground = config_.ground.enabled;
+  M in_contact = mask_of([&](std::size_t l) { return contact_[l].in_contact; });
+  // Steps each lane takes: n, or up to its failure.
+  std::array<std::int64_t, kLanes> taken{};
+  for (int l = 0; l < kLanes; ++l) taken[static_cast<std::size_t>(l)] = running[l] ? n : 0;
+  std::array<ContactState, kLanes> contact_after{};
+
+  for (std::int64_t s = 0; s < n; ++s) {
+    if (stdx::none_of(running)) break;
+    StateVectorT<P> next =
+        held_rotor_step(kernel, config_.integrator, x, speed, wind, gravity, config_.dt_s);
+    // Ground contact: the Simulator's rule, lane by lane, for lanes touching the ground or
+    // leaving it (rare in flight; the test is two compares per lane).
+    M contact_changed = M(false);
+    if (ground) {
+      const P& z = next[kPosition + 2];
+      const P& vz = next[kVelocity + 2];
+      const M touching = z < P(T(0)) || (z == P(T(0)) && vz <= P(T(0)));
+      contact_changed = running && (touching || in_contact);
+      if (stdx::any_of(contact_changed)) {
+        for (int l = 0; l < kLanes; ++l) {
+          if (!contact_changed[l]) continue;
+          const StateVector before = lane_state(x, l);
+          StateVector after = lane_state(next, l);
+          ContactState c = contact_[base + l];
+          resolve_ground_contact(config_.ground, before, config_.dt_s, after, c);
+          for (int k = 0; k < kStateSize; ++k) next[k][l] = static_cast<T>(after[k]);
+          contact_after[static_cast<std::size_t>(l)] = c;
+        }
+      }
+    }
+    // Validity, as Simulator::check_state: squared norms against squared limits.
+    const P p2 = next[0] * next[0] + next[1] * next[1] + next[2] * next[2];
+    const P v2 = next[3] * next[3] + next[4] * next[4] + next[5] * next[5];
+    const P q2 = next[6] * next[6] + next[7] * next[7] + next[8] * next[8] + next[9] * next[9];
+    const P w2 = next[10] * next[10] + next[11] * next[11] + next[12] * next[12];
+    const M ok = p2 <= max_p2 && v2 <= max_v2 && w2 <= max_w2 && q2 <= P(T(4)) && q2 >= P(T(0.25));
+    const M commit = running && ok;
+    const M failed = running && !ok;
+    if (stdx::any_of(failed)) {
+      for (int l = 0; l < kLanes; ++l) {
+        if (!failed[l]) continue;
+        status_[base + l] = static_cast<std::uint8_t>(classify_failure(lane_state(next, l)));
+        taken[static_cast<std::size_t>(l)] = s;
+      }
+    }
+    for (int k = 0; k < kStateSize; ++k) stdx::where(commit, x[k]) = next[k];
+    if (stdx::any_of(contact_changed)) {
+      for (int l = 0; l < kLanes; ++l) {
+        if (!contact_changed[l] || !commit[l]) continue;
+        contact_[base + l] = contact_after[static_cast<std::size_t>(l)];
+        in_contact[l] = contact_[base + l].in_contact;
+      }
+    }
+    // Motors (Eq. 2.45), after the step as in the Simulator.
+    for (int i = 0; i < nr; ++i) {
+      const auto r = static_cast<std::size_t>(i);
+      const RotorParams& rotor = model_->rotor(i);
+      const P ref = scalar::clamp(reference[r], P(static_cast<T>(rotor.min_speed_rad_s)),
+                                  P(static_cast<T>(rotor.max_speed_rad_s)));
+      const P w = config_.motor_dynamics
+                      ? motor_speed_after(decay.rise[r], decay.fall[r], ref, speed[r])
+                      : ref;
+      stdx::where(commit, speed[r]) = w;
+    }
+    running = commit;
+  }
+
+  for (int k = 0; k < kStateSize; ++k) store(x[k], &state_[k * stride + base]);
+  for (int i = 0; i < nr; ++i)
+    store(speed[static_cast<std::size_t>(i)], &rotor_speed_[i * stride + base]);
+  for (int l = 0; l < kLanes; ++l) step_count_[base + l] += taken[static_cast<std::size_t>(l)];
+}
+
+template class BatchSimulator<double>;
+template class BatchSimulator<float>;
+template class AlignedArray<double>;
+template class AlignedArray<float>;
+
+}  // namespace dronetwin

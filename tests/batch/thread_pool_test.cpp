@@ -1,0 +1,78 @@
+// ThreadPool: every task runs exactly once on any number of threads, errors come back to the
+// caller, and two threads sharing one pool are told so.
+
+#include "dronetwin/batch/thread_pool.hpp"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+namespace dronetwin {
+namespace {
+
+TEST(ThreadPool, EveryTaskRunsExactlyOnceOnAnyNumberOfThreads) {
+  for (int threads : {1, 2, 3, 8}) {
+    ThreadPool pool(threads);
+    EXPECT_EQ(pool.num_threads(), threads);
+    for (int tasks : {0, 1, 2, 7, 1000}) {
+      std::vector<std::atomic<int>> runs(static_cast<std::size_t>(tasks));
+      for (int repeat = 0; repeat < 20; ++repeat)
+        pool.run(tasks, [&](int i) { runs[static_cast<std::size_t>(i)].fetch_add(1); });
+      for (int i = 0; i < tasks; ++i)
+        ASSERT_EQ(runs[static_cast<std::size_t>(i)].load(), 20)
+            << threads << " threads, task " << i;
+    }
+  }
+}
+
+TEST(ThreadPool, UsesMoreThanOneThreadWhenItHasThem) {
+  ThreadPool pool(2);
+  std::atomic<int> inside{0}, most{0};
+  pool.run(64, [&](int) {
+    const int now = inside.fetch_add(1) + 1;
+    int seen = most.load();
+    while (now > seen && !most.compare_exchange_weak(seen, now)) {
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    inside.fetch_sub(1);
+  });
+  EXPECT_EQ(most.load(), 2);
+}
+
+TEST(ThreadPool, ATaskErrorReachesTheCallerAndThePoolStaysUsable) {
+  ThreadPool pool(2);
+  EXPECT_THROW(pool.run(50,
+                        [](int i) {
+                          if (i == 17) throw std::runtime_error("task 17 failed");
+                        }),
+               std::runtime_error);
+  std::atomic<int> count{0};
+  pool.run(10, [&](int) { count.fetch_add(1); });
+  EXPECT_EQ(count.load(), 10);
+}
+
+TEST(ThreadPool, TwoCallersOfOnePoolAreRefused) {
+  ThreadPool pool(2);
+  std::atomic<bool> started{false}, release{false};
+  std::thread first([&] {
+    pool.run(2, [&](int) {
+      started = true;
+      while (!release) std::this_thread::yield();
+    });
+  });
+  while (!started) std::this_thread::yield();
+  EXPECT_THROW(pool.run(1, [](int) {}), SimulationError);
+  release = true;
+  first.join();
+}
+
+TEST(ThreadPool, BadSizesAreNamed) {
+  EXPECT_THROW(ThreadPool(0), InvalidArgument);
+  EXPECT_THROW(ThreadPool(-3), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace dronetwin
