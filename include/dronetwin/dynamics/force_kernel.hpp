@@ -53,16 +53,18 @@
 namespace dronetwin {
 
 /// The rotor-speed dependent part of the force model for one vehicle and one step (stage 2).
+/// Scratch: prepare() writes every member it later reads, so nothing is zeroed up front (for a
+/// pack of vehicles that would be a kilobyte of stores per step).
 template <class S>
 struct HeldRotorTerms {
   /// Thrust, yaw reaction and drag moment: constant while the speeds are held.
-  Vector6<S> constant = Vector6<S>::Zero();
+  Vector6<S> constant;
   /// Rotor drag, rolling moment and frame drag as a linear map of [v_air_B; w_B].
-  Matrix6<S> velocity_map = Matrix6<S>::Zero();
+  Matrix6<S> velocity_map;
   /// Total angular momentum of the rotors, body frame (gyroscopic moment).
-  Vector3<S> rotor_momentum_B = Vector3<S>::Zero();
-  /// C_G T_i per rotor (ground effect).
-  std::array<S, kMaxRotors> ground_gain{};
+  Vector3<S> rotor_momentum_B;
+  /// C_G T_i per rotor (ground effect); the first num_rotors() entries.
+  std::array<S, kMaxRotors> ground_gain;
 };
 
 template <class S>
@@ -71,6 +73,9 @@ class ForceKernel {
   using Value = scalar::value_type_t<S>;
 
   /// Stage 1: folds the model's coefficients and the term switches into per-rotor constants.
+  /// What is geometry (hub positions and axes: the airframe's, shared by every lane of a batch) is
+  /// kept in the value type apart from the coefficients that a fit or a batch lane varies (S), so
+  /// a pack of vehicles carries one number per coefficient, not one per matrix entry.
   ForceKernel(const VehicleModelTpl<S>& model, ForceTerms terms)
       : num_rotors_(model.num_rotors()),
         terms_(terms),
@@ -81,39 +86,39 @@ class ForceKernel {
         inertia_inverse_diagonal_(model.inertia_inverse().diagonal()),
         inertia_is_diagonal_(model.inertia_is_diagonal()),
         ground_min_height_m_(model.ground_effect_min_height_m()) {
-    per_speed_maps_.setZero();
-    thrust_wrench_.setZero();
-    momentum_per_speed_.setZero();
+    drag_maps_.setZero();
+    rolling_maps_.setZero();
+    axis_.setZero();
     rotor_position_.setZero();
     ground_direction_.setZero();
     for (int i = 0; i < num_rotors_; ++i) {
+      const auto k = static_cast<std::size_t>(i);
       const RotorParamsTpl<S>& r = model.rotor(i);
-      thrust_polynomial_[static_cast<std::size_t>(i)] = r.thrust_coefficients;
-      ground_coefficient_[static_cast<std::size_t>(i)] = r.ground_effect_coefficient;
-      // Rotor drag and rolling moment per unit |w_i| (Eq. 2.32), stacked column-major so that one
-      // axpy per rotor and step builds the whole 6x6 velocity map.
-      Matrix6<S> m = Matrix6<S>::Zero();
-      if (terms.rotor_drag) m += r.rotor_drag_coefficient * rotor_drag_map(r.position_m, r.axis);
-      if (terms.rolling_moment) {
-        m += r.rolling_moment_coefficient * rolling_moment_map(r.position_m, r.axis);
-      }
-      per_speed_maps_.col(i) = Eigen::Map<const Eigen::Matrix<S, 36, 1>>(m.data());
-      // Thrust (Eq. 2.22) at the hub, and the moments about the axis that are proportional to
-      // the thrust: yaw reaction (Eq. 2.24) and drag moment (Eq. 2.32).
-      const Vector6<Value> unit_force = axial_force_wrench(r.position_m, r.axis);
+      thrust_polynomial_[k] = r.thrust_coefficients;
+      ground_coefficient_[k] = r.ground_effect_coefficient;
+      // Rotor drag and rolling moment per unit C |w_i| (Eq. 2.32), stacked column-major so that
+      // one axpy per rotor and step builds the 6x6 velocity map; the rolling moment acts on the
+      // moment rows only (rows 3-5, 18 entries).
+      const Matrix6<Value> drag = rotor_drag_map(r.position_m, r.axis);
+      const Matrix6<Value> rolling = rolling_moment_map(r.position_m, r.axis);
+      drag_maps_.col(i) = Eigen::Map<const Eigen::Matrix<Value, 36, 1>>(drag.data());
+      for (int c = 0; c < 6; ++c)
+        for (int row = 0; row < 3; ++row) rolling_maps_(3 * c + row, i) = rolling(3 + row, c);
+      drag_coefficient_[k] = terms.rotor_drag ? r.rotor_drag_coefficient : S(Value(0));
+      rolling_coefficient_[k] = terms.rolling_moment ? r.rolling_moment_coefficient : S(Value(0));
+      // The moments about the axis that are proportional to the thrust (Eq. 2.22): yaw reaction
+      // (Eq. 2.24) and drag moment (Eq. 2.32).
       S axial_per_thrust = S(Value(0));
       if (terms.yaw_reaction) axial_per_thrust = yaw_reaction_per_thrust(r);
       if (terms.drag_moment) axial_per_thrust += drag_moment_per_thrust(r);
-      Vector6<S> per_thrust = Vector6<S>::Zero();
-      if (terms.thrust) per_thrust = unit_force.template cast<S>();
-      per_thrust.template tail<3>() += axial_per_thrust * r.axis;
-      thrust_wrench_.col(i) = per_thrust;
-      if (terms.gyroscopic) momentum_per_speed_.col(i) = rotor_momentum_per_speed(r);
+      axial_per_thrust_[k] = axial_per_thrust;
+      // Rotor angular momentum per unit speed, eps_i J_r,i along the axis (Eq. 2.35).
+      momentum_per_speed_[k] = terms.gyroscopic ? S(Value(r.spin) * r.inertia_kgm2) : S(Value(0));
+      axis_.col(i) = r.axis;
       rotor_position_.col(i) = r.position_m;
-      ground_direction_.col(i) = unit_force;
+      ground_direction_.col(i) = axial_force_wrench(r.position_m, r.axis);  // [a_i; r_i x a_i]
     }
-    body_drag_map_ = terms.body_drag ? body_drag_map(model.body_drag_Ns_per_m())
-                                     : Matrix6<S>(Matrix6<S>::Zero());
+    body_drag_ = terms.body_drag ? model.body_drag_Ns_per_m() : Matrix3<S>(Matrix3<S>::Zero());
   }
 
   const ForceTerms& terms() const { return terms_; }
@@ -123,21 +128,46 @@ class ForceKernel {
   /// be plain doubles (a logged flight) or of the kernel's scalar.
   template <class Speeds>
   DRONETWIN_HOT_INLINE void prepare(const Speeds& speeds_rad_s, HeldRotorTerms<S>& held) const {
-    held.constant.setZero();
-    held.rotor_momentum_B.setZero();
+    const S zero = S(Value(0));
+    held.constant.setConstant(zero);
+    held.rotor_momentum_B.setConstant(zero);
     for (int i = 0; i < num_rotors_; ++i) {
       const auto k = static_cast<std::size_t>(i);
       const auto& w = speeds_rad_s[i];
       const S thrust_N = thrust_polynomial(thrust_polynomial_[k], w);  // Eq. 2.22
-      held.constant += thrust_N * thrust_wrench_.col(i);
-      held.rotor_momentum_B += w * momentum_per_speed_.col(i);
+      // Thrust along the axis at the hub [a_i; r_i x a_i] T_i, and the axial moments.
+      if (terms_.thrust) {
+        for (int row = 0; row < 6; ++row)
+          held.constant[row] = held.constant[row] + thrust_N * ground_direction_(row, i);
+      }
+      const S axial_moment = thrust_N * axial_per_thrust_[k];
+      const S momentum = w * momentum_per_speed_[k];
+      for (int row = 0; row < 3; ++row) {
+        held.constant[3 + row] = held.constant[3 + row] + axial_moment * axis_(row, i);
+        held.rotor_momentum_B[row] = held.rotor_momentum_B[row] + momentum * axis_(row, i);
+      }
       held.ground_gain[k] = ground_coefficient_[k] * thrust_N;
     }
-    // Fixed-size axpy per rotor: cheaper than a dynamic-size matrix-vector product here.
-    Eigen::Map<Eigen::Matrix<S, 36, 1>> map(held.velocity_map.data());
-    map = Eigen::Map<const Eigen::Matrix<S, 36, 1>>(body_drag_map_.data());
-    for (int i = 0; i < num_rotors_; ++i)
-      map += scalar::abs(speeds_rad_s[i]) * per_speed_maps_.col(i);
+    // The 6x6 velocity map: frame drag -A in the force rows and air-velocity columns, then one
+    // axpy per rotor and term, written as plain loops so that they inline for packs too.
+    S* map = held.velocity_map.data();
+    for (int e = 0; e < 36; ++e) map[e] = zero;
+    for (int c = 0; c < 3; ++c)
+      for (int row = 0; row < 3; ++row) map[6 * c + row] = -body_drag_(row, c);
+    for (int i = 0; i < num_rotors_; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      const auto speed = scalar::abs(speeds_rad_s[i]);
+      if (terms_.rotor_drag) {
+        const S c_drag = speed * drag_coefficient_[k];
+        for (int e = 0; e < 36; ++e) map[e] = map[e] + c_drag * drag_maps_(e, i);
+      }
+      if (terms_.rolling_moment) {
+        const S c_rolling = speed * rolling_coefficient_[k];
+        for (int c = 0; c < 6; ++c)
+          for (int row = 0; row < 3; ++row)
+            map[6 * c + 3 + row] = map[6 * c + 3 + row] + c_rolling * rolling_maps_(3 * c + row, i);
+      }
+    }
   }
 
   /// Stage 3: total non-gravitational [F_B; M_B] about the centre of mass at state x, rotation
@@ -204,10 +234,14 @@ class ForceKernel {
   Value ground_min_height_m_ = Value(0);
   std::array<std::array<S, 3>, kMaxRotors> thrust_polynomial_{};
   std::array<S, kMaxRotors> ground_coefficient_{};
-  Eigen::Matrix<S, 36, kMaxRotors> per_speed_maps_;
-  Matrix6<S> body_drag_map_;
-  Eigen::Matrix<S, 6, kMaxRotors> thrust_wrench_;
-  Eigen::Matrix<S, 3, kMaxRotors> momentum_per_speed_;
+  // Per-rotor coefficients (one per lane in a pack) ...
+  std::array<S, kMaxRotors> drag_coefficient_{}, rolling_coefficient_{}, axial_per_thrust_{},
+      momentum_per_speed_{};
+  Matrix3<S> body_drag_;
+  // ... and the airframe's geometry they multiply (shared by every lane).
+  Eigen::Matrix<Value, 36, kMaxRotors> drag_maps_;
+  Eigen::Matrix<Value, 18, kMaxRotors> rolling_maps_;
+  Eigen::Matrix<Value, 3, kMaxRotors> axis_;
   Eigen::Matrix<Value, 3, kMaxRotors> rotor_position_;
   Eigen::Matrix<Value, 6, kMaxRotors> ground_direction_;
 };

@@ -94,7 +94,8 @@ Matrix6<V> rolling_moment_map(const Vector3<V>& position_m, const Vector3<V>& ax
 /// unusable, notes #10): C_G T / h^2 with `gain` = C_G T and h the hub height above the ground,
 /// floored at `min_height_m` so the force stays finite when a hub touches the ground.
 template <class S, class X, class V>
-S ground_effect_force(const S& gain, const X& hub_height_m, const V& min_height_m) {
+DRONETWIN_HOT_INLINE S ground_effect_force(const S& gain, const X& hub_height_m,
+                                           const V& min_height_m) {
   const X h = scalar::max(hub_height_m, X(min_height_m));
   return gain / (h * h);
 }
