@@ -93,6 +93,21 @@ struct NumTraits<std::experimental::simd<T, Abi>> : GenericNumTraits<T> {
   static int digits10() { return std::numeric_limits<T>::digits10; }
 };
 
+namespace internal {
+/// A fixed-size matrix of packs asks for no extra alignment: its elements already carry theirs
+/// (32 or 64 bytes), and Eigen's default request (16 bytes with SSE) below that is an error for
+/// clang ("requested alignment is less than minimum alignment"); GCC ignores it.
+template <class T, class Abi, int Size>
+struct compute_default_alignment<std::experimental::simd<T, Abi>, Size> {
+  enum { value = 0 };
+};
+// (Dynamic sizes keep Eigen's heap alignment; this one only settles which rule applies.)
+template <class T, class Abi>
+struct compute_default_alignment<std::experimental::simd<T, Abi>, Dynamic> {
+  enum { value = EIGEN_MAX_ALIGN_BYTES };
+};
+}  // namespace internal
+
 template <class T, class Abi, class BinaryOp>
 struct ScalarBinaryOpTraits<std::experimental::simd<T, Abi>, T, BinaryOp> {
   using ReturnType = std::experimental::simd<T, Abi>;
