@@ -101,8 +101,8 @@ class BatchSimulator {
                  int num_threads = 1);
 
   int size() const { return num_vehicles_; }
-  /// Distance between one state element of consecutive... lanes' arrays: element k of lane l is at
-  /// [k * stride() + l].
+  /// Length of one element's array (size() rounded up to whole packs): element k of lane l is at
+  /// [k * stride() + l] of state_data() (and likewise for the rotor and wind arrays).
   int stride() const { return stride_; }
   int num_rotors() const { return model_->num_rotors(); }
   int num_threads() const { return pool_->num_threads(); }
@@ -124,6 +124,7 @@ class BatchSimulator {
   void reset_where(const std::uint8_t* mask, const double* states, const double* rotor_speeds);
 
   StateVector state(int lane) const;
+  /// One state element of one lane, unchecked (for loops over lanes; state() checks the lane).
   T state_at(int element, int lane) const {
     return state_[static_cast<std::size_t>(element) * stride_ + lane];
   }
