@@ -400,7 +400,7 @@ StateVector lane_state(const StateVectorT<P>& x, int l) {
 // kernel (Eigen's loops over packs and the pack operators) instead of calling out per operation,
 // which is what makes the pack kernel faster than the scalar one (docs/batch.md).
 template <class T>
-[[gnu::flatten]] void BatchSimulator<T>::step_pack(int pack, std::int64_t n) {
+DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n) {
   using P = Lanes;
   using M = typename P::mask_type;
   using namespace state_index;

@@ -163,7 +163,7 @@ class BatchSimulator {
   std::size_t lane_index(int lane) const;
   void rebuild_pack(int pack);
   // Flattened (every call inlined): see the definition.
-  [[gnu::flatten]] void step_pack(int pack, std::int64_t n);
+  DRONETWIN_FLATTEN void step_pack(int pack, std::int64_t n);
   void check_inputs(int pack);
 
   std::shared_ptr<const VehicleModel> model_;

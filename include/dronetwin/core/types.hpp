@@ -13,6 +13,16 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>  // cross products
 
+/// Inlines every call inside a function, recursively (GCC's flatten): the SIMD pack step, whose
+/// pack operators and Eigen loops GCC otherwise calls out of line. Optimised builds only: with
+/// sanitizers and -g (the asan-ubsan and tsan presets) GCC 12 took over 10 minutes to compile the
+/// flattened step, which there only needs to be correct, not fast.
+#if defined(__GNUC__) && !defined(__clang__) && defined(NDEBUG)
+#define DRONETWIN_FLATTEN [[gnu::flatten]]
+#else
+#define DRONETWIN_FLATTEN
+#endif
+
 /// Forces inlining of small hot functions (the RK4 stages call them four times per step).
 #if defined(__GNUC__) || defined(__clang__)
 #define DRONETWIN_HOT_INLINE __attribute__((always_inline)) inline
