@@ -3,6 +3,7 @@
 #include "dronetwin/config/log_metadata_reader.hpp"
 
 #include <array>
+#include <cstdio>
 #include <filesystem>
 #include <set>
 #include <system_error>
@@ -74,6 +75,21 @@ namespace {
 // Not Reader::parse: its messages speak of YAML, and a sidecar is JSON.
 YAML::Node load_json(const std::string& json_text, const std::string& source_name) {
   io_detail::require_utf8(json_text, source_name, "JSON");
+  // JSON (RFC 8259) has no raw control characters: inside strings they are escaped, outside only
+  // tab, line feed and carriage return separate tokens. A raw NUL in a string was read into the
+  // metadata, written back as \u0000 and then not read again (found by the fuzzer).
+  for (std::size_t i = 0; i < json_text.size(); ++i) {
+    const auto c = static_cast<unsigned char>(json_text[i]);
+    if (c < 0x20 && c != '\t' && c != '\n' && c != '\r') {
+      std::size_t line = 1;
+      for (std::size_t k = 0; k < i; ++k) line += json_text[k] == '\n';
+      char code[8];
+      std::snprintf(code, sizeof code, "0x%02x", static_cast<unsigned>(c));
+      throw InvalidArgument(source_name + ": line " + std::to_string(line) + ", byte " +
+                            std::to_string(i) + ": control character " + code +
+                            " (JSON allows control characters only as escapes inside strings)");
+    }
+  }
   try {
     return YAML::Load(json_text);
   } catch (const YAML::ParserException& e) {

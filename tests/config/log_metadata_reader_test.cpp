@@ -409,5 +409,19 @@ TEST(LogMetadataReader, ASidecarThatIsNotUtf8IsRefusedWithLineAndColumn) {
       << message;
 }
 
+// Found by the fuzzer: a raw NUL inside a string was accepted, written back as \u0000, and the
+// written sidecar then did not read again. Raw control characters are refused up front; an
+// accepted sidecar's JSON always reads back.
+TEST(LogMetadataReader, ARawControlCharacterIsRefusedWithLineAndByte) {
+  std::string text = "{\n  \"format\": \"dronetwin.run_log\",\n  \"experiment\": \"se3_";
+  text += std::string(1, '\0') + "circle\"\n}\n";
+  const std::string message = error_of([&] { (void)parse_log_metadata(text, "nul.json"); });
+  EXPECT_NE(message.find("nul.json: line 3, byte 56: control character 0x00"), std::string::npos)
+      << message;
+  text[56] = '\x01';
+  EXPECT_NE(error_of([&] { (void)parse_log_metadata(text, "soh.json"); }).find("0x01"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace dronetwin
