@@ -281,20 +281,6 @@ void BatchSimulator<T>::reset(int lane, const StateVector& state,
 }
 
 template <class T>
-void BatchSimulator<T>::reset_where(const std::uint8_t* mask, const double* states,
-                                    const double* rotor_speeds) {
-  const int nr = model_->num_rotors();
-  for (int lane = 0; lane < num_vehicles_; ++lane) {
-    if (mask[lane] == 0) continue;
-    const auto l = static_cast<std::size_t>(lane);
-    const StateVector x = Eigen::Map<const StateVector>(states + l * kStateSize);
-    const RotorVector w =
-        Eigen::Map<const Eigen::VectorXd>(rotor_speeds + l * static_cast<std::size_t>(nr), nr);
-    reset(lane, x, w);
-  }
-}
-
-template <class T>
 StateVector BatchSimulator<T>::state(int lane) const {
   const std::size_t l = lane_index(lane);
   StateVector x;

@@ -297,6 +297,13 @@ TEST(BatchSimulator, BadInputsAreNamed) {
   expect_error([&] { batch.set_rotor_speed_reference(0, RotorVector::Zero(3)); },
                "expected 4 values");
   expect_error([&] { batch.step(-1); }, "n >= 0");
+  expect_error([&] { batch.set_wind(2, Vec3(0, std::nan(""), 0)); }, "set_wind: lane 2");
+  expect_error([&] { batch.set_generalized_force(1, Vec4(std::nan(""), 0, 0, 0)); },
+               "lane 1: [T, tau_x, tau_y, tau_z][0]");
+  expect_error([&] { batch.reset(3, Simulator::hover_state(Vec3(0, 0, -0.5))); },
+               "lane 3: state[2]: z = -0.5 m is below the ground");
+  expect_error([&] { batch.reset(0, Simulator::hover_state(Vec3(0, 0, 1)), RotorVector::Zero(6)); },
+               "rotor speeds: expected 4 values, got 6");
 }
 
 // Float lanes follow the double ones. Single precision rounds at 6e-8 relative; over 10 s of

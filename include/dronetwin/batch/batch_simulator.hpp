@@ -119,9 +119,6 @@ class BatchSimulator {
   /// cleared, its step count zero.
   void reset(int lane, const StateVector& state);
   void reset(int lane, const StateVector& state, const RotorVector& rotor_speeds_rad_s);
-  /// reset() of every lane whose mask entry is non-zero (mask of size() entries), from rows of
-  /// `states` (size() x 13, row-major) and `rotor_speeds` (size() x num_rotors, row-major).
-  void reset_where(const std::uint8_t* mask, const double* states, const double* rotor_speeds);
 
   StateVector state(int lane) const;
   /// One state element of one lane, unchecked (for loops over lanes; state() checks the lane).
