@@ -2,6 +2,9 @@
 // model (every disturbance term), RK4, motor lag, ground check, per-lane parameters (every lane a
 // different mass and thrust curve), wind. Arguments: N vehicles, steps per call, threads.
 // Run: build/release/bench/batch_bench (docs/performance.md, "Batched engine").
+// BM_*Noise: the same with OU state noise on (13 counter-based normals per vehicle-step).
+// BM_*Se3: the SE(3) controller and the thrust-first allocation before every physics step
+// (BatchSe3Controller), each lane holding its own setpoint, no restarts needed.
 //
 // "steps per call" 1 is an RL loop that acts every physics step; 10 is a 100 Hz policy over a
 // 1 kHz physics (the pack stays in registers for the 10 steps).
@@ -10,6 +13,7 @@
 
 #include <memory>
 
+#include "dronetwin/batch/batch_se3.hpp"
 #include "dronetwin/batch/batch_simulator.hpp"
 #include "dronetwin/config/model_loader.hpp"
 
@@ -17,8 +21,10 @@ namespace {
 
 using namespace dronetwin;
 
+enum class Mode { kOpenLoop, kNoise, kSe3 };
+
 template <class T>
-void run(benchmark::State& state) {
+void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
   const auto model = std::make_shared<const VehicleModel>(
       load_vehicle_model(std::string(DRONETWIN_SOURCE_DIR) + "/models/qdrone2.yaml"));
   const int n = static_cast<int>(state.range(0));
@@ -26,7 +32,18 @@ void run(benchmark::State& state) {
   const int threads = static_cast<int>(state.range(2));
   SimConfig cfg;
   cfg.environment.wind_W_m_s << 1.0, -0.5, 0.0;  // non-zero air velocity: drag terms do work
+  cfg.noise.enabled = mode == Mode::kNoise;
   BatchSimulator<T> batch(model, cfg, n, threads);
+  Se3Options options;
+  options.gravity_compensation = true;
+  options.max_tilt_rad = 0.6;
+  BatchSe3Controller<T> se3(model, Se3Gains::thesis(), options, n);
+  for (int l = 0; l < n; ++l) {
+    ReferencePoint r;
+    r.position_m = Vec3(0.5, -0.3, 1.0 + 1e-3 * l);
+    r.yaw_rad = 0.3;
+    se3.set_reference(l, r);
+  }
   const RotorVector hover = model->hover_speeds_rad_s();
   RotorVector ref = hover;
   ref[0] *= 1.001;  // a little asymmetry so the body moves and rotates
@@ -46,13 +63,13 @@ void run(benchmark::State& state) {
   std::int64_t simulated = 0;
   for (auto _ : state) {
     // Open loop drifts: restart every 2 s of simulated time, outside the measured time.
-    if (simulated >= 2000) {
+    if (simulated >= 2000 && mode != Mode::kSe3) {
       state.PauseTiming();
       start_all();
       simulated = 0;
       state.ResumeTiming();
     }
-    benchmark::DoNotOptimize(batch.step(steps));
+    benchmark::DoNotOptimize(mode == Mode::kSe3 ? batch.step(steps, se3) : batch.step(steps));
     simulated += steps;
   }
   const double vehicle_steps = static_cast<double>(state.iterations()) * n * steps;
@@ -65,6 +82,10 @@ void run(benchmark::State& state) {
 
 void BM_BatchDouble(benchmark::State& s) { run<double>(s); }
 void BM_BatchFloat(benchmark::State& s) { run<float>(s); }
+void BM_BatchDoubleNoise(benchmark::State& s) { run<double>(s, Mode::kNoise); }
+void BM_BatchFloatNoise(benchmark::State& s) { run<float>(s, Mode::kNoise); }
+void BM_BatchDoubleSe3(benchmark::State& s) { run<double>(s, Mode::kSe3); }
+void BM_BatchFloatSe3(benchmark::State& s) { run<float>(s, Mode::kSe3); }
 
 void sizes(benchmark::internal::Benchmark* b) {
   b->ArgNames({"N", "steps", "threads"});
@@ -76,6 +97,10 @@ void sizes(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_BatchDouble)->Apply(sizes);
 BENCHMARK(BM_BatchFloat)->Apply(sizes);
+BENCHMARK(BM_BatchDoubleNoise)->Apply(sizes);
+BENCHMARK(BM_BatchFloatNoise)->Apply(sizes);
+BENCHMARK(BM_BatchDoubleSe3)->Apply(sizes);
+BENCHMARK(BM_BatchFloatSe3)->Apply(sizes);
 
 }  // namespace
 

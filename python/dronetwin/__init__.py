@@ -142,3 +142,21 @@ def BatchSimulator(model, config=None, num_vehicles=1, num_threads=1, dtype=_np.
     if dtype == _np.float32:
         return BatchSimulator32(model, config, num_vehicles, num_threads)
     raise ValueError(f"BatchSimulator: dtype: expected float64 or float32, got {dtype}")
+
+
+def BatchSe3Controller(model, gains, options, num_vehicles, dtype=_np.float64):
+    """The SE(3) controller for every lane of a batch, run inside ``BatchSimulator.step``:
+
+        se3 = dt.BatchSe3Controller(model, dt.Se3Gains.thesis(), options, 4096)
+        se3.reference[:, 0:3] = targets              # (N, 11): p, v, a, cos(yaw), sin(yaw)
+        batch.step(1000, se3)                        # the controller before every physics step
+
+    In float64 a lane equals Se3Controller flown by ClosedLoop at the physics rate. ``dtype``
+    must be the batch's.
+    """
+    dtype = _np.dtype(dtype)
+    if dtype == _np.float64:
+        return BatchSe3Controller64(model, gains, options, num_vehicles)
+    if dtype == _np.float32:
+        return BatchSe3Controller32(model, gains, options, num_vehicles)
+    raise ValueError(f"BatchSe3Controller: dtype: expected float64 or float32, got {dtype}")

@@ -8,9 +8,12 @@
 
 #include <pybind11/pybind11.h>
 
+#include <limits>
 #include <string>
+#include <vector>
 
 #include "bindings.hpp"
+#include "dronetwin/batch/batch_se3.hpp"
 #include "dronetwin/batch/batch_simulator.hpp"
 
 namespace dronetwin::python {
@@ -114,6 +117,53 @@ void bind_one(py::module_& m, const char* class_name, const char* dtype) {
           },
           "(N, 13) live view: one row per lane [x, y, z, vx, vy, vz, qw, qx, qy, qz, wx, wy, wz].")
       .def_property_readonly(
+          "measured_state",
+          [](py::object self) {
+            B& b = self.cast<B&>();
+            // Read-only view; the const is the batch's (the array is its own output).
+            return lane_view<T>(b, const_cast<T*>(b.measured_state_data()), kStateSize, self,
+                                false);
+          },
+          "(N, 13) read-only view: state + OU noise as of the last step or reset (the state "
+          "itself when noise is off).")
+      .def_property_readonly("noise_enabled", &B::noise_enabled)
+      .def(
+          "set_seed",
+          [](B& b, py::handle seeds, py::handle lanes) {
+            const std::vector<int> which = lanes_of(lanes, b.size(), "BatchSimulator.set_seed");
+            // Python integers one by one, so a negative or too large seed is named, not wrapped.
+            const py::list items =
+                py::module_::import("numpy").attr("atleast_1d")(seeds).attr("tolist")();
+            if (items.size() != 1 && items.size() != which.size())
+              throw py::value_error("BatchSimulator.set_seed: seeds: expected one seed or " +
+                                    std::to_string(which.size()) +
+                                    " (one per lane addressed), got " +
+                                    std::to_string(items.size()));
+            std::vector<std::uint64_t> values;
+            for (std::size_t i = 0; i < items.size(); ++i) {
+              const py::handle item = items[i];
+              if (!py::isinstance<py::int_>(item) || py::isinstance<py::bool_>(item) ||
+                  item < py::int_(0) || item > py::int_(std::numeric_limits<std::uint64_t>::max()))
+                throw py::value_error("BatchSimulator.set_seed: seeds[" + std::to_string(i) +
+                                      "]: expected an integer in [0, 2**64), got " +
+                                      py::repr(item).cast<std::string>());
+              values.push_back(item.cast<std::uint64_t>());
+            }
+            for (std::size_t i = 0; i < which.size(); ++i)
+              b.set_seed(which[i], values[values.size() == 1 ? 0 : i]);
+          },
+          py::arg("seeds"), py::arg("lanes") = py::none(),
+          "Seeds of the lanes' noise streams (one seed, or one per lane addressed); a lane's noise "
+          "depends only on its seed, its index and its step count. Usually followed by reset().")
+      .def(
+          "seeds",
+          [](const B& b) {
+            py::array_t<std::uint64_t> a(b.size());
+            for (int l = 0; l < b.size(); ++l) a.mutable_at(l) = b.seed(l);
+            return a;
+          },
+          "(N,) uint64: every lane's noise seed.")
+      .def_property_readonly(
           "rotor_speeds",
           [](py::object self) {
             B& b = self.cast<B&>();
@@ -166,10 +216,20 @@ void bind_one(py::module_& m, const char* class_name, const char* dtype) {
           "(N,) bool: lanes resting on (or touching) the ground.")
       .def(
           "step",
-          [](B& b, std::int64_t n) {
+          [](B& b, std::int64_t n, py::object inner_loop) {
             if (n < 0)
               throw py::value_error("BatchSimulator.step(n): expected n >= 0, got " +
                                     std::to_string(n));
+            BatchInnerLoop<T>* loop = nullptr;
+            if (!inner_loop.is_none()) {
+              if (!py::isinstance<BatchInnerLoop<T>>(inner_loop))
+                throw py::type_error(
+                    std::string("BatchSimulator.step: inner_loop: expected a batched controller "
+                                "of the batch's dtype (") +
+                    (sizeof(T) == 8 ? "float64" : "float32") + "), got " +
+                    py::repr(inner_loop).cast<std::string>());
+              loop = &inner_loop.cast<BatchInnerLoop<T>&>();
+            }
             // Blocks of about 2^22 vehicle-steps (tens of ms) with the GIL released, Ctrl-C
             // checked between them.
             const std::int64_t block =
@@ -179,7 +239,7 @@ void bind_one(py::module_& m, const char* class_name, const char* dtype) {
               const std::int64_t k = std::min(block, n - done);
               {
                 py::gil_scoped_release release;
-                failed = b.step(k);
+                failed = loop != nullptr ? b.step(k, *loop) : b.step(k);
               }
               done += k;
               if (n == 0) break;
@@ -187,8 +247,32 @@ void bind_one(py::module_& m, const char* class_name, const char* dtype) {
             }
             return failed;
           },
-          py::arg("n") = 1,
-          "Steps every running lane n times (GIL released). Returns how many lanes are not ok.")
+          py::arg("n") = 1, py::arg("inner_loop") = py::none(),
+          "Steps every running lane n times (GIL released); with an inner_loop (a "
+          "BatchSe3Controller) the controller sets each lane's rotor references from its "
+          "measured state before every physics step. Returns how many lanes are not ok.")
+      .def(
+          "set_generalized_forces",
+          [](B& b, py::handle u) {
+            const auto a =
+                py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(u);
+            if (!a || a.ndim() != 2 || a.shape(0) != b.size() || a.shape(1) != 4)
+              throw py::value_error("BatchSimulator.set_generalized_forces: u: expected shape (" +
+                                    std::to_string(b.size()) +
+                                    ", 4) ([T, tau_x, tau_y, tau_z] per lane)");
+            std::vector<T> soa(static_cast<std::size_t>(4 * b.stride()), T(0));
+            for (int l = 0; l < b.size(); ++l)
+              for (int k = 0; k < 4; ++k)
+                soa[static_cast<std::size_t>(k * b.stride() + l)] = static_cast<T>(a.at(l, k));
+            b.set_generalized_forces(soa.data());
+            py::array_t<std::uint8_t> flags(b.size());
+            for (int l = 0; l < b.size(); ++l) flags.mutable_at(l) = b.saturated_data()[l];
+            return flags;
+          },
+          py::arg("u"),
+          "Rotor references of every lane from generalized forces u (N, 4) through the nominal "
+          "model's thrust-first allocation. Returns (N,) uint8: 1 where the request saturated, "
+          "2 where it was not finite (that lane's references unchanged).")
       .def(
           "reset",
           [](B& b, py::handle lanes, py::handle states, py::handle rotor_speeds) {
@@ -260,11 +344,66 @@ void bind_one(py::module_& m, const char* class_name, const char* dtype) {
            "Rebuilds the thread pool with num_threads threads (results do not change).");
 }
 
+template <class T>
+void bind_se3(py::module_& m, const char* base_name, const char* name, const char* dtype) {
+  using C = BatchSe3Controller<T>;
+  py::class_<BatchInnerLoop<T>>(
+      m, base_name, (std::string("A batched inner-loop controller in ") + dtype + ".").c_str());
+  py::class_<C, BatchInnerLoop<T>>(m, name,
+                                   (std::string("The SE(3) controller for every lane of a ") +
+                                    dtype + " batch (see dronetwin.BatchSe3Controller).")
+                                       .c_str())
+      .def(py::init([](const std::shared_ptr<VehicleModel>& model, const Se3Gains& gains,
+                       const Se3Options& options, int num_vehicles) {
+             if (!model) throw py::value_error("model: expected a VehicleModel, got None");
+             return std::make_unique<C>(model, gains, options, num_vehicles);
+           }),
+           py::arg("model"), py::arg("gains"), py::arg("options"), py::arg("num_vehicles"))
+      .def_property_readonly("size", &C::size)
+      .def_property_readonly(
+          "reference",
+          [](py::object self) {
+            C& c = self.cast<C&>();
+            const auto item = static_cast<py::ssize_t>(sizeof(T));
+            return py::array_t<T>(
+                {static_cast<py::ssize_t>(c.size()), static_cast<py::ssize_t>(C::kReferenceSize)},
+                {item, static_cast<py::ssize_t>(c.stride()) * item}, c.reference_data(), self);
+          },
+          "(N, 11) writable view: [x, y, z, vx, vy, vz, ax, ay, az, cos(yaw), sin(yaw)] per lane.")
+      .def(
+          "set_reference",
+          [](C& c, int lane, py::handle position, py::handle velocity, py::handle acceleration,
+             double yaw_rad) {
+            ReferencePoint r;
+            r.position_m = to_fixed<3>(position, "BatchSe3Controller.set_reference: position");
+            if (!velocity.is_none())
+              r.velocity_m_s = to_fixed<3>(velocity, "BatchSe3Controller.set_reference: velocity");
+            if (!acceleration.is_none())
+              r.acceleration_m_s2 =
+                  to_fixed<3>(acceleration, "BatchSe3Controller.set_reference: acceleration");
+            r.yaw_rad = yaw_rad;
+            c.set_reference(lane, r);
+          },
+          py::arg("lane"), py::arg("position"), py::arg("velocity") = py::none(),
+          py::arg("acceleration") = py::none(), py::arg("yaw") = 0.0,
+          "One lane's reference point (m, m/s, m/s^2, rad).")
+      .def(
+          "saturated_count",
+          [](const C& c) {
+            py::array_t<std::int64_t> a(c.size());
+            for (int l = 0; l < c.size(); ++l) a.mutable_at(l) = c.saturated_count_data()[l];
+            return a;
+          },
+          "(N,) int64: updates per lane whose allocation saturated.");
+}
+
 }  // namespace
 
 void bind_batch(py::module_& m) {
   bind_one<double>(m, "BatchSimulator64", "float64");
   bind_one<float>(m, "BatchSimulator32", "float32");
+  bind_se3<double>(m, "BatchInnerLoop64", "BatchSe3Controller64", "float64");
+  bind_se3<float>(m, "BatchInnerLoop32", "BatchSe3Controller32", "float32");
 }
 
 }  // namespace dronetwin::python

@@ -8,6 +8,7 @@
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/dynamics/motor.hpp"
 #include "dronetwin/model/allocation.hpp"
+#include "dronetwin/noise/counter_normal.hpp"
 
 namespace dronetwin {
 
@@ -118,9 +119,6 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
     : model_(std::move(model)), config_(std::move(config)) {
   require(model_ != nullptr, "BatchSimulator: model is null");
   validate(config_);
-  require(!config_.noise.enabled,
-          "BatchSimulator: noise.enabled: OU noise is not available in the batch yet; "
-          "set noise.enabled = false");
   require(num_vehicles >= 1 && num_vehicles <= kMaxVehicles,
           "BatchSimulator: num_vehicles: expected 1 to ", kMaxVehicles, ", got ", num_vehicles);
   terms_ = ForceTerms::of(config_.disturbances);
@@ -135,11 +133,19 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
   rotor_reference_ = AlignedArray<T>(n * kMaxRotors);
   wind_ = AlignedArray<T>(n * 3);
   status_.assign(n, static_cast<std::uint8_t>(StepStatus::kOk));
+  saturated_.assign(n, 0);
   step_count_.assign(n, 0);
   contact_.assign(n, ContactState{});
   for (std::size_t l = 0; l < n; ++l) {
     for (int k = 0; k < 3; ++k)
       wind_[k * n + l] = static_cast<T>(config_.environment.wind_W_m_s[k]);
+  }
+  seed_.assign(n, config_.seed);
+  noise_key_ = AlignedArray<std::uint64_t>(n);
+  for (std::size_t l = 0; l < n; ++l) noise_key_[l] = counter_stream_key(config_.seed, l);
+  if (config_.noise.enabled) {
+    noise_ = AlignedArray<T>(n * kStateSize);
+    measured_ = AlignedArray<T>(n * kStateSize);
   }
 
   for (int p = 0; p < kNumModelParameters; ++p)
@@ -164,6 +170,8 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
     state_[static_cast<std::size_t>(state_index::kQuaternion) * n + l] = T(1);
     contact_[l].in_contact = config_.ground.enabled;
   }
+  if (config_.noise.enabled)
+    for (std::size_t i = 0; i < n * kStateSize; ++i) measured_[i] = state_[i];
 }
 
 template <class T>
@@ -276,6 +284,12 @@ void BatchSimulator<T>::reset(int lane, const StateVector& state,
   }
   contact_[l] = ContactState{};
   contact_[l].in_contact = config_.ground.enabled && x[state_index::kPosition + 2] <= 0.0;
+  if (config_.noise.enabled) {
+    for (int k = 0; k < kStateSize; ++k) {
+      noise_[static_cast<std::size_t>(k) * n + l] = T(0);
+      measured_[static_cast<std::size_t>(k) * n + l] = state_[static_cast<std::size_t>(k) * n + l];
+    }
+  }
   status_[l] = static_cast<std::uint8_t>(StepStatus::kOk);
   step_count_[l] = 0;
 }
@@ -288,6 +302,25 @@ StateVector BatchSimulator<T>::state(int lane) const {
     x[k] = static_cast<double>(
         state_[static_cast<std::size_t>(k) * static_cast<std::size_t>(stride_) + l]);
   return x;
+}
+
+template <class T>
+StateVector BatchSimulator<T>::measured_state(int lane) const {
+  const std::size_t l = lane_index(lane);
+  const T* m = measured_state_data();
+  StateVector x;
+  for (int k = 0; k < kStateSize; ++k)
+    x[k] =
+        static_cast<double>(m[static_cast<std::size_t>(k) * static_cast<std::size_t>(stride_) + l]);
+  return x;
+}
+
+template <class T>
+void BatchSimulator<T>::set_seed(int lane, std::uint64_t seed) {
+  const SingleThreadGuard::Hold hold(guard_, "BatchSimulator::set_seed");
+  const std::size_t l = lane_index(lane);
+  seed_[l] = seed;
+  noise_key_[l] = counter_stream_key(seed, l);
 }
 
 template <class T>
@@ -340,6 +373,22 @@ void BatchSimulator<T>::set_wind(int lane, const Vec3& wind_W_m_s) {
 template <class T>
 int BatchSimulator<T>::step(std::int64_t n) {
   const SingleThreadGuard::Hold hold(guard_, "BatchSimulator::step");
+  return run_steps(n, nullptr);
+}
+
+template <class T>
+int BatchSimulator<T>::step(std::int64_t n, BatchInnerLoop<T>& inner_loop) {
+  const SingleThreadGuard::Hold hold(guard_, "BatchSimulator::step");
+  require(inner_loop.size() == num_vehicles_, "BatchSimulator::step: the inner loop is for ",
+          inner_loop.size(), " vehicles, the batch has ", num_vehicles_);
+  require(inner_loop.num_rotors() == model_->num_rotors(),
+          "BatchSimulator::step: the inner loop is for ", inner_loop.num_rotors(),
+          " rotors, the batch's model has ", model_->num_rotors());
+  return run_steps(n, &inner_loop);
+}
+
+template <class T>
+int BatchSimulator<T>::run_steps(std::int64_t n, BatchInnerLoop<T>* inner_loop) {
   require(n >= 0, "BatchSimulator::step(n): expected n >= 0, got ", n);
   if (any_dirty_) {
     for (int c = 0; c < num_packs_; ++c)
@@ -351,15 +400,41 @@ int BatchSimulator<T>::step(std::int64_t n) {
     // hand-out cheap.
     constexpr int kPacksPerTask = 4;
     const int tasks = (num_packs_ + kPacksPerTask - 1) / kPacksPerTask;
-    pool_->run(tasks, [this, n](int task) {
+    pool_->run(tasks, [this, n, inner_loop](int task) {
       const int end = std::min(num_packs_, (task + 1) * kPacksPerTask);
-      for (int c = task * kPacksPerTask; c < end; ++c) step_pack(c, n);
+      for (int c = task * kPacksPerTask; c < end; ++c) step_pack(c, n, inner_loop);
     });
   }
   int failed = 0;
   for (int l = 0; l < num_vehicles_; ++l)
     failed += status_[static_cast<std::size_t>(l)] != static_cast<std::uint8_t>(StepStatus::kOk);
   return failed;
+}
+
+template <class T>
+void BatchSimulator<T>::set_generalized_forces(const T* u) {
+  const SingleThreadGuard::Hold hold(guard_, "BatchSimulator::set_generalized_forces");
+  require(u != nullptr, "BatchSimulator::set_generalized_forces: u is null");
+  using P = Lanes;
+  const std::size_t stride = static_cast<std::size_t>(stride_);
+  const int nr = model_->num_rotors();
+  for (int pack = 0; pack < num_packs_; ++pack) {
+    const std::size_t base = static_cast<std::size_t>(pack) * kLanes;
+    // Unaligned loads: u is the caller's array.
+    Vector4<P> request;
+    for (int k = 0; k < 4; ++k) request[k] = P(u + k * stride + base, stdx::element_aligned);
+    auto usable = stdx::abs(request[0]) <= P(std::numeric_limits<T>::max());
+    for (int k = 1; k < 4; ++k)
+      usable = usable && stdx::abs(request[k]) <= P(std::numeric_limits<T>::max());
+    const ThrustFirstAllocation<P> a = allocate_thrust_first<P>(*model_, request);
+    for (int i = 0; i < nr; ++i) {
+      P ref(&rotor_reference_[i * stride + base], stdx::vector_aligned);
+      stdx::where(usable, ref) = a.speeds_rad_s[static_cast<std::size_t>(i)];
+      ref.copy_to(&rotor_reference_[i * stride + base], stdx::vector_aligned);
+    }
+    for (int l = 0; l < kLanes; ++l)
+      saturated_[base + l] = !usable[l] ? 2 : (a.saturated[l] ? 1 : 0);
+  }
 }
 
 namespace {
@@ -386,7 +461,8 @@ StateVector lane_state(const StateVectorT<P>& x, int l) {
 // kernel (Eigen's loops over packs and the pack operators) instead of calling out per operation,
 // which is what makes the pack kernel faster than the scalar one (docs/batch.md).
 template <class T>
-DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n) {
+DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
+                                                    BatchInnerLoop<T>* inner_loop) {
   using P = Lanes;
   using M = typename P::mask_type;
   using namespace state_index;
@@ -450,8 +526,52 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n) {
   for (int l = 0; l < kLanes; ++l) taken[static_cast<std::size_t>(l)] = running[l] ? n : 0;
   std::array<ContactState, kLanes> contact_after{};
 
+  // OU state noise (Eq. 3.5) on a counter-based stream per lane: draw j of the lane's step k is
+  // counter_normal(key, k * kCounterDrawsPerStep + j), whatever the pack, thread or call.
+  using U = Pack<std::uint64_t, kLanes>;
+  const bool noise = config_.noise.enabled;
+  StateVectorT<P> y;
+  U key(0), first_draw(0);
+  struct BlockPacks {
+    P theta_a, theta_b, sigma_a, sigma_b;
+  };
+  std::array<BlockPacks, 4> blocks{};
+  P drift_scale(T(0)), sqrt_dt(T(0));
+  if (noise) {
+    for (int k = 0; k < kStateSize; ++k) y[k] = load<P>(&noise_[k * stride + base]);
+    key = U(&noise_key_[base], stdx::vector_aligned);
+    first_draw = U([&](auto l) {
+      return static_cast<std::uint64_t>(step_count_[base + l]) * kCounterDrawsPerStep;
+    });
+    const OuParameters& ou = config_.noise.parameters;
+    for (std::size_t b = 0; b < 4; ++b)
+      blocks[b] = {P(static_cast<T>(ou.theta[b].a)), P(static_cast<T>(ou.theta[b].b)),
+                   P(static_cast<T>(ou.sigma[b].a)), P(static_cast<T>(ou.sigma[b].b))};
+    // As OrnsteinUhlenbeck's constructor: sqrt(dt) and the drift scale in double, then T.
+    drift_scale = P(static_cast<T>(ou.drift == OuDrift::kPerSample ? 1.0 : config_.dt_s));
+    sqrt_dt = P(static_cast<T>(std::sqrt(config_.dt_s)));
+  }
+
   for (std::int64_t s = 0; s < n; ++s) {
     if (stdx::none_of(running)) break;
+    if (inner_loop != nullptr) {
+      // The controller sees what a sensor would: state + noise (ClosedLoop's measured_state()).
+      StateVectorT<P> measured = x;
+      if (noise)
+        for (int k = 0; k < kStateSize; ++k) measured[k] = x[k] + y[k];
+      M controller_failed(false);
+      inner_loop->references(pack, running, measured, reference, controller_failed);
+      controller_failed = controller_failed && running;
+      if (stdx::any_of(controller_failed)) {
+        for (int l = 0; l < kLanes; ++l) {
+          if (!controller_failed[l]) continue;
+          status_[base + l] = static_cast<std::uint8_t>(StepStatus::kControllerFailed);
+          taken[static_cast<std::size_t>(l)] = s;
+        }
+        running = running && !controller_failed;
+        if (stdx::none_of(running)) break;
+      }
+    }
     StateVectorT<P> next =
         held_rotor_step(kernel, config_.integrator, x, speed, wind, gravity, config_.dt_s);
     // Ground contact: the Simulator's rule, lane by lane, for lanes touching the ground or
@@ -508,18 +628,51 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n) {
                       : ref;
       stdx::where(commit, speed[r]) = w;
     }
+    if (noise) {
+      std::array<P, kStateSize> xi;
+      const U draw = first_draw + U(static_cast<std::uint64_t>(s) * kCounterDrawsPerStep);
+      for (int j = 0; j < kStateSize; ++j) {
+        const auto d = counter_normal_pack<kLanes>(key, draw + U(static_cast<std::uint64_t>(j)));
+        xi[static_cast<std::size_t>(j)] = stdx::static_simd_cast<P>(d);
+      }
+      StateVectorT<P> y_next = y;
+      for (std::size_t b = 0; b < 4; ++b) {
+        const BlockPacks& c = blocks[b];
+        const int o = kOuBlockOffset[b];
+        P* yb = y_next.data() + o;
+        const P* xb = xi.data() + o;
+        if (kOuBlockSize[b] == 4)
+          ou_update_block<4>(yb, xb, c.theta_a, c.theta_b, c.sigma_a, c.sigma_b, drift_scale,
+                             sqrt_dt);
+        else
+          ou_update_block<3>(yb, xb, c.theta_a, c.theta_b, c.sigma_a, c.sigma_b, drift_scale,
+                             sqrt_dt);
+      }
+      for (int k = 0; k < kStateSize; ++k) stdx::where(commit, y[k]) = y_next[k];
+    }
     running = commit;
   }
 
   for (int k = 0; k < kStateSize; ++k) store(x[k], &state_[k * stride + base]);
   for (int i = 0; i < nr; ++i)
     store(speed[static_cast<std::size_t>(i)], &rotor_speed_[i * stride + base]);
+  // The inner loop changed the references of running lanes only (BatchInnerLoop::references).
+  if (inner_loop != nullptr)
+    for (int i = 0; i < nr; ++i)
+      store(reference[static_cast<std::size_t>(i)], &rotor_reference_[i * stride + base]);
   for (int l = 0; l < kLanes; ++l) step_count_[base + l] += taken[static_cast<std::size_t>(l)];
+  if (noise) {
+    for (int k = 0; k < kStateSize; ++k) {
+      store(y[k], &noise_[k * stride + base]);
+      store(P(x[k] + y[k]), &measured_[k * stride + base]);
+    }
+  }
 }
 
 template class BatchSimulator<double>;
 template class BatchSimulator<float>;
 template class AlignedArray<double>;
 template class AlignedArray<float>;
+template class AlignedArray<std::uint64_t>;
 
 }  // namespace dronetwin

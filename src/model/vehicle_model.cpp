@@ -12,23 +12,8 @@ namespace dronetwin {
 
 double rotor_speed_for_thrust(const std::array<double, 3>& coefficients, double min_speed_rad_s,
                               double max_speed_rad_s, double thrust_N) {
-  const double a = coefficients[0], b = coefficients[1], c = coefficients[2];
-  double w;
-  if (a > 0.0) {
-    // Positive root of a w^2 + b w + (c - T) = 0, written to avoid cancellation when b > 0.
-    const double disc = b * b - 4.0 * a * (c - thrust_N);
-    if (disc <= 0.0) {
-      w = -b / (2.0 * a);
-    } else {
-      const double s = std::sqrt(disc);
-      w = b >= 0.0 ? (2.0 * (thrust_N - c)) / (b + s) : (-b + s) / (2.0 * a);
-    }
-  } else {
-    w = (thrust_N - c) / b;  // linear curve; validation guarantees b > 0 when a == 0
-  }
-  if (!(w >= min_speed_rad_s)) w = min_speed_rad_s;  // also maps NaN to the limit
-  if (w > max_speed_rad_s) w = max_speed_rad_s;
-  return w;
+  return inverse_thrust_polynomial<double>(coefficients, min_speed_rad_s, max_speed_rad_s,
+                                           thrust_N);
 }
 
 namespace {

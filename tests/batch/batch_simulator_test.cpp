@@ -286,7 +286,8 @@ TEST(BatchSimulator, BadInputsAreNamed) {
   const auto model = test::load_model("qdrone2");
   SimConfig noisy;
   noisy.noise.enabled = true;
-  expect_error([&] { BatchSimulator<double>(model, noisy, 4); }, "noise.enabled");
+  noisy.noise.parameters.theta[0].a = 5.0;  // an unstable OU block, as validate() names it
+  expect_error([&] { BatchSimulator<double>(model, noisy, 4); }, "noise.theta");
   expect_error([&] { BatchSimulator<double>(model, SimConfig{}, 0); }, "num_vehicles");
   expect_error([&] { BatchSimulator<double>(model, SimConfig{}, 4, 0); }, "num_threads");
   BatchSimulator<double> batch(model, SimConfig{}, 4);

@@ -84,10 +84,8 @@ def test_parameters_by_name_and_their_errors(qdrone2):
         batch.set_parameter("mass", [1.0, 2.0])
     with pytest.raises(ValueError, match="lane 7 is out of range"):
         batch.reset(7, dt.Simulator.hover_state([0, 0, 1]))
-    with pytest.raises(ValueError, match="noise"):
-        cfg = dt.SimConfig()
-        cfg.noise.enabled = True
-        dt.BatchSimulator(qdrone2, cfg, num_vehicles=2)
+    with pytest.raises(ValueError, match="num_vehicles"):
+        dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=0)
     with pytest.raises(ValueError, match="dtype"):
         dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=2, dtype=np.int32)
 
@@ -116,3 +114,76 @@ def test_two_python_threads_stepping_one_batch_are_refused(qdrone2):
     assert counts[0] % 50 == 0
     for e in errors:
         assert "BatchSimulator::step" in e
+
+
+def test_noise_gives_a_read_only_measured_state_seeded_per_lane(qdrone2):
+    cfg = dt.SimConfig()
+    cfg.noise.enabled = True
+    cfg.seed = 4
+    hover = qdrone2.hover_speeds_rad_s()
+    batch = dt.BatchSimulator(qdrone2, cfg, num_vehicles=6, num_threads=2)
+    assert batch.noise_enabled
+    batch.reset(None, dt.Simulator.hover_state([0, 0, 1]), hover)
+    np.testing.assert_array_equal(batch.measured_state, batch.state)  # zero noise after reset
+    batch.set_seed([10, 11, 12], lanes=[0, 1, 2])
+    np.testing.assert_array_equal(batch.seeds(), [10, 11, 12, 4, 4, 4])
+    batch.step(200)
+    noise = batch.measured_state - batch.state
+    assert not batch.measured_state.flags.writeable
+    # Thesis Sigma = B(0.005, 0.003): after 200 steps every element has moved, no two lanes alike.
+    assert np.all(np.abs(noise).max(axis=1) > 1e-4)
+    assert len({row.tobytes() for row in noise}) == 6
+    # A lane's noise depends on its seed, index and step count only: a batch of one agrees.
+    one = dt.BatchSimulator(qdrone2, cfg, num_vehicles=1)
+    one.set_seed(10)
+    one.reset(0, dt.Simulator.hover_state([0, 0, 1]), hover)
+    one.step(200)
+    np.testing.assert_array_equal(one.measured_state[0], batch.measured_state[0])
+    with pytest.raises(ValueError, match=r"seeds\[1\]: expected an integer in \[0, 2\*\*64\), got -3"):
+        batch.set_seed([1, -3], lanes=[0, 1])
+    with pytest.raises(ValueError, match="expected one seed or 2"):
+        batch.set_seed([1, 2, 3], lanes=[0, 1])
+
+
+def test_batched_se3_flies_every_lane_to_its_setpoint_like_the_closed_loop(qdrone2):
+    n = 5
+    # The flying configuration of config/controllers/se3.yaml.
+    options = dt.Se3Options()
+    options.gravity_compensation = True
+    options.max_tilt_rad = 0.5
+    options.nonnegative_thrust = True
+    gains = dt.Se3Gains.thesis()
+    gains.attitude_d = [0.8, 0.8, 0.05]
+    batch = dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=n, num_threads=2)
+    se3 = dt.BatchSe3Controller(qdrone2, gains, options, n)
+    batch.reset(None, dt.Simulator.hover_state([0, 0, 1]), qdrone2.hover_speeds_rad_s())
+    targets = np.array([[0.2 * k, -0.1 * k, 1.5] for k in range(n)])
+    se3.reference[:, 0:3] = targets
+    se3.set_reference(4, [1.0, 1.0, 2.0], yaw=0.5)
+    targets[4] = [1.0, 1.0, 2.0]
+    np.testing.assert_allclose(se3.reference[4, 9:11], [np.cos(0.5), np.sin(0.5)])
+    assert batch.step(5000, se3) == 0
+    np.testing.assert_allclose(batch.state[:, 0:3], targets, atol=5e-3)
+    # Lane 4 against the scalar controller through ClosedLoop at the physics rate.
+    sim = dt.Simulator(qdrone2, dt.SimConfig())
+    sim.reset(dt.Simulator.hover_state([0, 0, 1]), qdrone2.hover_speeds_rad_s())
+    ctrl = dt.Se3Controller(qdrone2, gains, options)
+    loop = dt.ClosedLoop(sim, ctrl, dt.SetpointReference([1.0, 1.0, 2.0], 0.5), 1000.0)
+    loop.run(5.0)
+    np.testing.assert_allclose(batch.state[4], sim.state, rtol=0, atol=1e-12)
+    with pytest.raises(TypeError, match="batched controller of the batch's dtype"):
+        batch.step(1, "se3")
+    f32 = dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=n, dtype=np.float32)
+    with pytest.raises(TypeError, match="float32"):
+        f32.step(1, se3)
+
+
+def test_generalized_forces_for_every_lane_flag_saturation(qdrone2):
+    batch = dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=3)
+    weight = qdrone2.mass_kg * 9.81
+    u = np.array([[weight, 0, 0, 0], [weight, 5.0, 0, 0], [np.nan, 0, 0, 0]])
+    flags = batch.set_generalized_forces(u)
+    np.testing.assert_array_equal(flags, [0, 1, 2])
+    np.testing.assert_allclose(batch.rotor_speed_reference[0], qdrone2.hover_speeds_rad_s(), rtol=1e-12)
+    with pytest.raises(ValueError, match=r"expected shape \(3, 4\)"):
+        batch.set_generalized_forces(np.zeros((2, 4)))

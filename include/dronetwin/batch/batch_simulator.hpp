@@ -33,8 +33,14 @@
 // batch, the pack width or the number of threads (tests/batch: bitwise across 1 and 2 threads and
 // batch sizes 1, 7 and 1024).
 //
-// Not yet: OU noise (a per-lane counter-based stream) and batched inner-loop controllers; a config
-// with noise enabled is refused.
+// Noise (config.noise.enabled): each lane carries the Simulator's OU state noise (Eq. 3.5) and
+// exposes state + noise as measured_state_data(). Its normals come from a counter-based stream
+// (noise/counter_normal.hpp): draw j of the lane's step k is a function of (seed, lane, k, j)
+// only, so it does not depend on N, threads or how steps are grouped into step(n) calls. The
+// stream is not the Simulator's xoshiro stream: same process, different numbers. set_seed() gives
+// a lane its own seed (a new episode); reset() restarts the lane's noise at zero and its stream
+// at step 0, so a reset without a new seed replays the same noise, as Simulator::reset() does.
+// The batch has no state-derivative output and therefore no derivative noise.
 //
 // Trap: one BatchSimulator is stepped by one thread at a time (it says so, SimulationError, if
 // two try); its own pool does the parallel work.
@@ -86,6 +92,27 @@ class AlignedArray {
   std::size_t size_ = 0;
 };
 
+/// An inner-loop controller the batch runs inside its step, once per physics step and pack, on
+/// the lanes' measured states (state + noise): the SE(3) controller of batch/batch_se3.hpp, say.
+/// It is called from the pool's threads, different packs at once, so it may write only its own
+/// per-lane data for the lanes of `pack`.
+template <class T>
+class BatchInnerLoop {
+ public:
+  static constexpr int kLanes = kBatchLanes<T>;
+  using Lanes = Pack<T, kLanes>;
+  using Mask = typename Lanes::mask_type;
+  virtual ~BatchInnerLoop() = default;
+  /// Rotor-speed references for lanes pack * kLanes ... (pack + 1) * kLanes - 1 from their
+  /// measured states. A lane whose output is unusable (not finite) is set in `failed`; the batch
+  /// then stops it with StepStatus::kControllerFailed. `running` marks the lanes that will step.
+  virtual void references(int pack, const Mask& running, const StateVectorT<Lanes>& measured,
+                          std::array<Lanes, kMaxRotors>& reference, Mask& failed) = 0;
+  /// Checked by BatchSimulator::step before it runs: the loop was built for this batch.
+  virtual int size() const = 0;
+  virtual int num_rotors() const = 0;
+};
+
 template <class T>
 class BatchSimulator {
  public:
@@ -95,8 +122,8 @@ class BatchSimulator {
   /// `num_vehicles` lanes of `model` under `config` (as a Simulator's: dt, integrator, motor lag,
   /// disturbance switches, gravity, wind for every lane, ground, divergence limits), stepped by
   /// `num_threads` threads (the caller and num_threads - 1 workers). Every lane starts at rest on
-  /// the ground at the origin, rotors stopped. Throws InvalidArgument for a bad config, sizes, or
-  /// noise enabled (not supported by the batch yet).
+  /// the ground at the origin, rotors stopped. Every lane's noise seed is config.seed. Throws
+  /// InvalidArgument for a bad config or sizes.
   BatchSimulator(std::shared_ptr<const VehicleModel> model, SimConfig config, int num_vehicles,
                  int num_threads = 1);
 
@@ -113,6 +140,18 @@ class BatchSimulator {
   /// Steps every running lane `n` times (n >= 0). A lane that fails stops at its last good state
   /// (status(lane)); the others go on. Returns the number of lanes that are not ok afterwards.
   int step(std::int64_t n = 1);
+  /// step(n) with `inner_loop` setting every running lane's rotor references from its measured
+  /// state before each physics step (as ClosedLoop does at the physics rate). The references it
+  /// writes stay in rotor_speed_reference_data() afterwards.
+  int step(std::int64_t n, BatchInnerLoop<T>& inner_loop);
+
+  /// Rotor references from generalized forces u = [T, tau_x, tau_y, tau_z] for every lane at
+  /// once, through the nominal model's thrust-first allocation (model/allocation.hpp), each lane
+  /// as set_generalized_force() would. `u` is structure of arrays: u[k * stride() + lane]. Lanes
+  /// whose request the rotors could not meet (moments scaled or thrust clipped) are flagged in
+  /// saturated_data(); a lane with a non-finite u is left unchanged and flagged 2.
+  void set_generalized_forces(const T* u);
+  const std::uint8_t* saturated_data() const { return saturated_.data(); }
 
   /// Puts lane `lane` at `state` (validated and normalised as Simulator::set_state) with rotor
   /// speeds and references `rotor_speeds_rad_s` (clamped; zero when omitted), contact and status
@@ -121,6 +160,14 @@ class BatchSimulator {
   void reset(int lane, const StateVector& state, const RotorVector& rotor_speeds_rad_s);
 
   StateVector state(int lane) const;
+  /// state(lane) + its OU noise (equal to state(lane) when noise is off), as of the last step or
+  /// reset.
+  StateVector measured_state(int lane) const;
+  /// Seed of lane `lane`'s noise stream (the key is mixed from the seed and the lane index). The
+  /// stream's position is the lane's step count, so a new seed usually goes with a reset.
+  void set_seed(int lane, std::uint64_t seed);
+  std::uint64_t seed(int lane) const { return seed_[lane_index(lane)]; }
+  bool noise_enabled() const { return config_.noise.enabled; }
   /// One state element of one lane, unchecked (for loops over lanes; state() checks the lane).
   T state_at(int element, int lane) const {
     return state_[static_cast<std::size_t>(element) * stride_ + lane];
@@ -152,6 +199,10 @@ class BatchSimulator {
   T* rotor_speed_data() { return rotor_speed_.data(); }
   T* rotor_speed_reference_data() { return rotor_reference_.data(); }
   T* wind_data() { return wind_.data(); }
+  /// state + noise, same layout as state_data(); the state array itself when noise is off.
+  const T* measured_state_data() const {
+    return config_.noise.enabled ? measured_.data() : state_.data();
+  }
 
   /// Changes the number of threads (rebuilds the pool; results are unchanged).
   void set_num_threads(int num_threads);
@@ -160,7 +211,8 @@ class BatchSimulator {
   std::size_t lane_index(int lane) const;
   void rebuild_pack(int pack);
   // Flattened (every call inlined): see the definition.
-  DRONETWIN_FLATTEN void step_pack(int pack, std::int64_t n);
+  DRONETWIN_FLATTEN void step_pack(int pack, std::int64_t n, BatchInnerLoop<T>* inner_loop);
+  int run_steps(std::int64_t n, BatchInnerLoop<T>* inner_loop);
   void check_inputs(int pack);
 
   std::shared_ptr<const VehicleModel> model_;
@@ -172,7 +224,12 @@ class BatchSimulator {
   std::unique_ptr<ThreadPool> pool_;
 
   AlignedArray<T> state_, rotor_speed_, rotor_reference_, wind_;
+  // OU state noise and state + noise (allocated when noise is on), per-lane stream keys.
+  AlignedArray<T> noise_, measured_;
+  AlignedArray<std::uint64_t> noise_key_;
+  std::vector<std::uint64_t> seed_;
   std::vector<std::uint8_t> status_;
+  std::vector<std::uint8_t> saturated_;
   std::vector<std::int64_t> step_count_;
   std::vector<ContactState> contact_;
 

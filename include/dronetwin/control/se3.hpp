@@ -32,6 +32,7 @@
 #include <string_view>
 
 #include "dronetwin/control/controller_base.hpp"
+#include "dronetwin/control/se3_law.hpp"
 
 namespace dronetwin {
 
@@ -59,6 +60,9 @@ struct Se3Options {
   bool nonnegative_thrust = false;
 };
 
+/// The constants of the law (control/se3_law.hpp) for these gains, options and inertia.
+Se3LawConstants se3_law_constants(const Se3Gains& gains, const Se3Options& options, const Mat3& J);
+
 /// The attitude half of the SE(3) law (Eq. 3.27-3.28 with w_des = 0), shared with the NMPC's
 /// inner loop: R_des = [b2d x b3d, b2d, b3d] from the desired thrust direction `b3d` (unit) and
 /// b1d = [cos yaw, sin yaw, 0], e_R = 1/2 vee(R_des^T R - R^T R_des), and
@@ -79,6 +83,7 @@ class Se3Controller final : public ControllerBase {
 
   const Se3Gains& gains() const { return gains_; }
   const Se3Options& options() const { return options_; }
+  const Se3LawConstants& law() const { return law_; }
 
  protected:
   GeneralizedForce do_calculate_u(const ControlInput& in) override;
@@ -86,6 +91,7 @@ class Se3Controller final : public ControllerBase {
  private:
   Se3Gains gains_;
   Se3Options options_;
+  Se3LawConstants law_;
 };
 
 }  // namespace dronetwin

@@ -9,8 +9,10 @@
 // Both clamp to the rotor speed limits.
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string_view>
+#include <utility>
 
 #include "dronetwin/model/vehicle_model.hpp"
 
@@ -35,40 +37,75 @@ struct AllocationResult {
   bool saturated = false;
 };
 
+/// The thrust-first allocation (exact method) for any lane scalar: a pack allocates W vehicles'
+/// requests at once, each lane as the double would, bit for bit.
+template <class S>
+struct ThrustFirstAllocation {
+  std::array<S, kMaxRotors> speeds_rad_s{};
+  /// Factor (0..1) applied to the requested moments.
+  S moment_scale{};
+  /// Moments scaled or thrust clipped (a bool, or a mask for a pack).
+  decltype(std::declval<S>() < std::declval<S>()) saturated{};
+};
+
 /// Thrust-first allocation (exact method): rotor thrusts t = A^+ [T, 0] + s A^+ [0, tau] with the
 /// largest s in [0, 1] that keeps every rotor within its thrust range [T(w_min), T(w_max)]; if the
 /// collective thrust alone is out of range it is clipped per rotor. Thrust is kept first because
-/// losing altitude control is worse than a slower attitude response.
+/// losing altitude control is worse than a slower attitude response. Rotor speeds by the closed
+/// form inverse of each rotor's thrust polynomial.
+template <class S>
+ThrustFirstAllocation<S> allocate_thrust_first(const VehicleModel& model, const Vector4<S>& u) {
+  using V = scalar::value_type_t<S>;
+  const int n = model.num_rotors();
+  const AllocationInverse& pinv = model.allocation_pseudo_inverse();
+  const auto c = [](double v) { return S(static_cast<V>(v)); };
+  std::array<S, kMaxRotors> t_thrust{}, t_moment{}, lo{}, hi{};
+  ThrustFirstAllocation<S> r;
+  r.saturated = S(V(0)) != S(V(0));
+  S s = c(1.0);
+  for (int i = 0; i < n; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    const RotorParams& rp = model.rotor(i);
+    t_thrust[k] = c(pinv(i, 0)) * u[0];
+    t_moment[k] = (c(pinv(i, 1)) * u[1] + c(pinv(i, 2)) * u[2]) + c(pinv(i, 3)) * u[3];
+    lo[k] = c(rp.thrust(rp.min_speed_rad_s));
+    hi[k] = c(rp.thrust(rp.max_speed_rad_s));
+    const S base = scalar::clamp(t_thrust[k], lo[k], hi[k]);
+    r.saturated = r.saturated || base != t_thrust[k];
+    // Largest s with lo <= base + s m <= hi for this rotor.
+    const S m = t_moment[k];
+    s = scalar::select(m > S(V(0)) && base + s * m > hi[k],
+                       scalar::max(S(V(0)), (hi[k] - base) / m), s);
+    s = scalar::select(m < S(V(0)) && base + s * m < lo[k],
+                       scalar::max(S(V(0)), (lo[k] - base) / m), s);
+  }
+  r.saturated = r.saturated || s < c(1.0);
+  r.moment_scale = s;
+  for (int i = 0; i < n; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    const RotorParams& rp = model.rotor(i);
+    const S t =
+        scalar::clamp(scalar::clamp(t_thrust[k], lo[k], hi[k]) + s * t_moment[k], lo[k], hi[k]);
+    r.speeds_rad_s[k] = inverse_thrust_polynomial(rp.thrust_coefficients, rp.min_speed_rad_s,
+                                                  rp.max_speed_rad_s, t);
+  }
+  return r;
+}
+
+/// allocate_thrust_first() in double, with the thrusts and the generalized force it achieves.
 inline AllocationResult allocate_with_saturation(const VehicleModel& model,
                                                  const GeneralizedForce& u) {
   const int n = model.num_rotors();
-  GeneralizedForce thrust_only = GeneralizedForce::Zero();
-  thrust_only[0] = u[0];
-  const RotorVector t_thrust = model.thrusts_for(thrust_only);
-  const RotorVector t_moment = model.thrusts_for(u - thrust_only);
+  const ThrustFirstAllocation<double> a = allocate_thrust_first<double>(model, u);
   AllocationResult r;
   r.thrusts_N.resize(n);
   r.speeds_rad_s.resize(n);
-  double s = 1.0;
   for (int i = 0; i < n; ++i) {
-    const RotorParams& rp = model.rotor(i);
-    const double lo = rp.thrust(rp.min_speed_rad_s), hi = rp.thrust(rp.max_speed_rad_s);
-    const double base = std::clamp(t_thrust[i], lo, hi);
-    if (base != t_thrust[i]) r.saturated = true;
-    // Largest s with lo <= base + s m <= hi for this rotor.
-    const double m = t_moment[i];
-    if (m > 0.0 && base + s * m > hi) s = std::max(0.0, (hi - base) / m);
-    if (m < 0.0 && base + s * m < lo) s = std::max(0.0, (lo - base) / m);
+    r.speeds_rad_s[i] = a.speeds_rad_s[static_cast<std::size_t>(i)];
+    r.thrusts_N[i] = model.rotor(i).thrust(r.speeds_rad_s[i]);
   }
-  if (s < 1.0) r.saturated = true;
-  r.moment_scale = s;
-  for (int i = 0; i < n; ++i) {
-    const RotorParams& rp = model.rotor(i);
-    const double lo = rp.thrust(rp.min_speed_rad_s), hi = rp.thrust(rp.max_speed_rad_s);
-    const double t = std::clamp(std::clamp(t_thrust[i], lo, hi) + s * t_moment[i], lo, hi);
-    r.speeds_rad_s[i] = rp.speed_for_thrust(t);
-    r.thrusts_N[i] = rp.thrust(r.speeds_rad_s[i]);
-  }
+  r.moment_scale = a.moment_scale;
+  r.saturated = a.saturated;
   r.achieved = model.allocation_matrix() * r.thrusts_N;
   return r;
 }

@@ -26,6 +26,29 @@ S thrust_polynomial(const std::array<S, 3>& c, const W& w) {
   return (c[0] * w + c[1]) * w + c[2];
 }
 
+/// The speed in [min_speed, max_speed] at which T(w) = thrust_N for the thrust polynomial c, for
+/// any lane scalar (a pack inverts W rotors' thrusts at once, each lane as the double would).
+template <class S>
+S inverse_thrust_polynomial(const std::array<double, 3>& c, double min_speed_rad_s,
+                            double max_speed_rad_s, const S& thrust_N) {
+  using V = scalar::value_type_t<S>;
+  const V a = static_cast<V>(c[0]), b = static_cast<V>(c[1]), k = static_cast<V>(c[2]);
+  S w;
+  if (c[0] > 0.0) {
+    // Positive root of a w^2 + b w + (k - T) = 0, written to avoid cancellation when b > 0.
+    const S disc = S(b * b) - S(V(4) * a) * (S(k) - thrust_N);
+    const S s = scalar::sqrt(scalar::max(disc, S(V(0))));
+    const S root =
+        c[1] >= 0.0 ? (S(V(2)) * (thrust_N - S(k))) / (S(b) + s) : (S(-b) + s) / S(V(2) * a);
+    w = scalar::select(disc <= S(V(0)), S(-b / (V(2) * a)), root);
+  } else {
+    w = (thrust_N - S(k)) / S(b);  // linear curve; validation guarantees b > 0 when a == 0
+  }
+  const S lo(static_cast<V>(min_speed_rad_s)), hi(static_cast<V>(max_speed_rad_s));
+  w = scalar::select(!(w >= lo), lo, w);  // also maps NaN to the limit
+  return scalar::select(w > hi, hi, w);
+}
+
 /// The speed in [min_speed_rad_s, max_speed_rad_s] at which T(w) = thrust_N for the thrust
 /// polynomial c (RotorParamsTpl<double>::speed_for_thrust).
 double rotor_speed_for_thrust(const std::array<double, 3>& c, double min_speed_rad_s,

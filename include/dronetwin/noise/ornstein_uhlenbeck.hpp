@@ -67,6 +67,25 @@ inline Eigen::Matrix<double, kStateSize, kStateSize> ou_block_matrix(
   return m;
 }
 
+/// One block of Eq. 3.4/3.5 for any scalar (double, float, a pack of lanes): advances the N values
+/// y[0..N) with the standard normals xi[0..N) by
+///   y_j += -drift_scale (theta_a y_j + theta_b sum(y)) + sqrt_dt (sigma_a xi_j + sigma_b sum(xi)),
+/// B_N(a, b) y = a y + b sum(y) (Eq. 3.8-3.9). The scalar process and the batch share it.
+template <int N, class S>
+inline void ou_update_block(S* y, const S* xi, const S& theta_a, const S& theta_b, const S& sigma_a,
+                            const S& sigma_b, const S& drift_scale, const S& sqrt_dt) {
+  S sum_y(0), sum_xi(0);
+  for (int j = 0; j < N; ++j) {
+    sum_y += y[j];
+    sum_xi += xi[j];
+  }
+  for (int j = 0; j < N; ++j) {
+    const S theta_y = theta_a * y[j] + theta_b * sum_y;
+    const S sigma_xi = sigma_a * xi[j] + sigma_b * sum_xi;
+    y[j] += -drift_scale * theta_y + sqrt_dt * sigma_xi;
+  }
+}
+
 class OrnsteinUhlenbeck {
  public:
   OrnsteinUhlenbeck() = default;
@@ -96,19 +115,10 @@ class OrnsteinUhlenbeck {
  private:
   template <int N>
   void update_block(int k, const std::array<double, kStateSize>& xi) {
-    const int o = kOuBlockOffset[static_cast<std::size_t>(k)];
-    const BlockCoefficients th = params_.theta[static_cast<std::size_t>(k)];
-    const BlockCoefficients sg = params_.sigma[static_cast<std::size_t>(k)];
-    double sum_y = 0.0, sum_xi = 0.0;
-    for (int j = 0; j < N; ++j) {
-      sum_y += y_[o + j];
-      sum_xi += xi[static_cast<std::size_t>(o + j)];
-    }
-    for (int j = 0; j < N; ++j) {
-      const double theta_y = th.a * y_[o + j] + th.b * sum_y;
-      const double sigma_xi = sg.a * xi[static_cast<std::size_t>(o + j)] + sg.b * sum_xi;
-      y_[o + j] += -drift_scale_ * theta_y + sqrt_dt_ * sigma_xi;
-    }
+    const auto b = static_cast<std::size_t>(k);
+    const int o = kOuBlockOffset[b];
+    ou_update_block<N>(y_.data() + o, xi.data() + o, params_.theta[b].a, params_.theta[b].b,
+                       params_.sigma[b].a, params_.sigma[b].b, drift_scale_, sqrt_dt_);
   }
 
   OuParameters params_{};

@@ -43,10 +43,25 @@ class Random {
   double uniform() { return static_cast<double>(next_u64() >> 11) * 0x1.0p-53; }
 
   /// Standard normal sample.
-  double normal() {
+  double normal() { return normal_from(next_u64(), *this); }
+
+  /// The ziggurat's layer tables (constants): right edges x, densities f = exp(-x^2/2) there,
+  /// and ratio[i] = x[i+1]/x[i], the part of layer i wholly inside the density.
+  static constexpr int kLayers = 128;
+  struct ZigguratTables {
+    std::array<double, kLayers + 1> x{};
+    std::array<double, kLayers + 1> f{};
+    std::array<double, kLayers> ratio{};
+  };
+  static const ZigguratTables& ziggurat() { return tables(); }
+
+  /// A standard normal whose first candidate comes from `bits` (64 uniform bits: the low 7 pick
+  /// the layer, the top 53 the signed uniform) and whose rare second chances (a wedge, the tail,
+  /// a rejection) draw from `more`. normal() is normal_from(next_u64(), *this); the counter-based
+  /// streams of noise/counter_normal.hpp pass bits of their own and a generator seeded from them.
+  static double normal_from(std::uint64_t bits, Random& more) {
     const auto& z = tables();
     for (;;) {
-      const std::uint64_t bits = next_u64();
       const int layer = static_cast<int>(bits & 127u);
       // Signed 53-bit uniform in (-1, 1) from the remaining bits.
       const double u =
@@ -54,23 +69,29 @@ class Random {
           0x1.0p-52;
       const double x = u * z.x[layer];
       if (std::abs(u) < z.ratio[layer]) return x;  // inside the rectangle: the common case
-      if (layer == 0) return tail(u < 0);
+      if (layer == 0) return more.tail(u < 0);
       // Wedge between two layers: accept with the exact density.
       const double y0 = z.f[layer], y1 = z.f[layer + 1];
-      if (y1 + (y0 - y1) * uniform() < std::exp(-0.5 * x * x)) return x;
+      if (y1 + (y0 - y1) * more.uniform() < std::exp(-0.5 * x * x)) return x;
+      bits = more.next_u64();
     }
   }
 
+  /// splitmix64's output function (a bijective 64-bit mixer).
+  static std::uint64_t mix64(std::uint64_t z) {
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+  }
+  /// splitmix64's increment (the golden-ratio Weyl constant).
+  static constexpr std::uint64_t kGolden = 0x9e3779b97f4a7c15ULL;
+
  private:
-  static constexpr int kLayers = 128;
   static constexpr double kR = 3.442619855899;          // right edge of the base layer
   static constexpr double kArea = 9.91256303526217e-3;  // area of each layer (unnormalised pdf)
 
-  struct Tables {
-    std::array<double, kLayers + 1> x{};  // layer right edges, x[0] = base width A/f(R)
-    std::array<double, kLayers + 1> f{};  // exp(-x^2/2) at those edges
-    std::array<double, kLayers> ratio{};  // x[i+1]/x[i]: fraction fully inside the density
-  };
+  // x[0] is the base layer's width A/f(R): the base includes the tail as a virtual rectangle.
+  using Tables = ZigguratTables;
 
   static const Tables& tables() {
     static const Tables t = [] {
@@ -101,12 +122,7 @@ class Random {
   }
 
   static std::uint64_t rotl(std::uint64_t v, int k) { return (v << k) | (v >> (64 - k)); }
-  static std::uint64_t splitmix64(std::uint64_t& s) {
-    std::uint64_t z = (s += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-  }
+  static std::uint64_t splitmix64(std::uint64_t& s) { return mix64(s += kGolden); }
 
   std::array<std::uint64_t, 4> state_{};
 };

@@ -1,0 +1,175 @@
+#pragma once
+// The SE(3) law of Se3Controller (thesis Eq. 3.26-3.29; control/se3.hpp says what each line means)
+// written once for any lane scalar: double for Se3Controller, a pack of W vehicles for the batched
+// controller (batch/batch_se3.hpp). Every sum is spelled out in a fixed order and every branch is
+// a per-lane select, so each lane of a pack equals the double controller bit for bit.
+//
+//   const Se3LawConstants k = se3_law_constants(gains, options, model->inertia_kgm2());
+//   Se3LawInput<double> in{p, v, q, w, p_ref, v_ref, a_ref, std::cos(yaw), std::sin(yaw)};
+//   GeneralizedForceT<double> u = se3_law(k, in);       // [f, M_x, M_y, M_z]
+//
+// Trap: with a pack, the branches not taken are still computed (and may hold inf or NaN in the
+// lanes that did not take them); only selected values reach the result.
+
+#include <cmath>
+
+#include "dronetwin/core/scalar.hpp"
+#include "dronetwin/core/types.hpp"
+#include "dronetwin/math/quaternion.hpp"
+
+namespace dronetwin {
+
+/// The law's constants (gains, mass, options), shared by every lane.
+struct Se3LawConstants {
+  Vec3 position_p = Vec3::Zero(), position_d = Vec3::Zero();
+  Vec3 attitude_p = Vec3::Zero(), attitude_d = Vec3::Zero();
+  double mass_kg = 1.0;
+  double gravity_m_s2 = 9.81;
+  bool gravity_compensation = false;
+  /// Tilt cone: off when the limit is infinite; cos, sin, tan of its half-angle.
+  bool limit_tilt = false;
+  double cos_tilt = 0.0, sin_tilt = 1.0, tan_tilt = 0.0;
+  bool nonnegative_thrust = false;
+  Mat3 inertia_kgm2 = Mat3::Identity();
+};
+
+/// What the law reads for one vehicle (or one pack of vehicles).
+template <class S>
+struct Se3LawInput {
+  Vector3<S> position_m, velocity_m_s;
+  Vector4<S> quaternion;  ///< measured, not necessarily unit
+  Vector3<S> angular_velocity_B;
+  Vector3<S> position_ref_m, velocity_ref_m_s, acceleration_ref_m_s2;
+  S cos_yaw, sin_yaw;  ///< of the yaw reference
+};
+
+namespace se3_law_detail {
+
+template <class S>
+S dot(const Vector3<S>& a, const Vector3<S>& b) {
+  return (a[0] * b[0] + a[1] * b[1]) + a[2] * b[2];
+}
+
+template <class S>
+Vector3<S> cross(const Vector3<S>& a, const Vector3<S>& b) {
+  return Vector3<S>(a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                    a[0] * b[1] - a[1] * b[0]);
+}
+
+template <class M, class S>
+Vector3<S> select(const M& mask, const Vector3<S>& a, const Vector3<S>& b) {
+  return Vector3<S>(scalar::select(mask, a[0], b[0]), scalar::select(mask, a[1], b[1]),
+                    scalar::select(mask, a[2], b[2]));
+}
+
+/// v / |v| where |v| > tiny, else `otherwise`.
+template <class S>
+Vector3<S> unit_or(const Vector3<S>& v, const S& tiny, const Vector3<S>& otherwise) {
+  const S n = scalar::sqrt(dot(v, v));
+  return select(n > tiny, Vector3<S>(v[0] / n, v[1] / n, v[2] / n), otherwise);
+}
+
+template <class S>
+S constant(double v) {
+  return S(static_cast<scalar::value_type_t<S>>(v));
+}
+
+}  // namespace se3_law_detail
+
+/// The attitude half (Eq. 3.27-3.28 with w_des = 0): R_des = [b2d x b3d, b2d, b3d] from the unit
+/// thrust direction b3d and b1d = [cos yaw, sin yaw, 0] (when b3d is parallel to b1d, b2d falls
+/// back on b3d x R e1, then b3d x e3), e_R = 1/2 vee(R_des^T R - R^T R_des) and
+/// M = -K_R e_R - K_w w_B + w_B x J w_B.
+template <class S>
+Vector3<S> se3_attitude_law(const Matrix3<S>& R, const Vector3<S>& w_B, const Vector3<S>& b3d,
+                            const S& cos_yaw, const S& sin_yaw, const Vec3& attitude_p,
+                            const Vec3& attitude_d, const Mat3& J) {
+  using namespace se3_law_detail;
+  const S zero(0), one = constant<S>(1.0), small = constant<S>(1e-6);
+  const Vector3<S> e2(zero, one, zero), e3(zero, zero, one);
+  const Vector3<S> b1d(cos_yaw, sin_yaw, zero);
+  const Vector3<S> Re1(R(0, 0), R(1, 0), R(2, 0));
+  // First usable of b3d x b1d, b3d x R e1, b3d x e3 (else e2).
+  const Vector3<S> third = unit_or(cross(b3d, e3), zero, e2);
+  const Vector3<S> second = unit_or(cross(b3d, Re1), small, third);
+  const Vector3<S> b2d = unit_or(cross(b3d, b1d), small, second);
+  const Vector3<S> b1 = cross(b2d, b3d);
+  // M1 = R_des^T R; e_R = 1/2 vee(M1 - M1^T) needs its off-diagonal entries only.
+  const auto m = [&](const Vector3<S>& des, int j) {
+    return (des[0] * R(0, j) + des[1] * R(1, j)) + des[2] * R(2, j);
+  };
+  const S half = constant<S>(0.5);
+  const Vector3<S> e_R(half * (m(b3d, 1) - m(b2d, 2)), half * (m(b1, 2) - m(b3d, 0)),
+                       half * (m(b2d, 0) - m(b1, 1)));
+  Vector3<S> Jw;
+  for (int i = 0; i < 3; ++i)
+    Jw[i] = (constant<S>(J(i, 0)) * w_B[0] + constant<S>(J(i, 1)) * w_B[1]) +
+            constant<S>(J(i, 2)) * w_B[2];
+  const Vector3<S> gyro = cross(w_B, Jw);
+  Vector3<S> M;
+  for (int i = 0; i < 3; ++i)
+    M[i] = (-constant<S>(attitude_p[i]) * e_R[i] - constant<S>(attitude_d[i]) * w_B[i]) + gyro[i];
+  return M;
+}
+
+/// The whole law: [f, M] for one vehicle or one pack (Eq. 3.26-3.29 with the options of
+/// Se3LawConstants; control/se3.hpp).
+template <class S>
+Vector4<S> se3_law(const Se3LawConstants& k, const Se3LawInput<S>& in) {
+  using namespace se3_law_detail;
+  const S zero(0), one = constant<S>(1.0);
+  const Vector3<S> e3(zero, zero, one);
+  // Measured attitude, normalised (notes #30); a zero quaternion is read as level.
+  const Vector4<S>& q = in.quaternion;
+  const S qn = scalar::sqrt(((q[0] * q[0] + q[1] * q[1]) + q[2] * q[2]) + q[3] * q[3]);
+  const auto q_ok = qn > constant<S>(1e-12);
+  Vector4<S> qu;
+  for (int i = 0; i < 4; ++i) qu[i] = scalar::select(q_ok, q[i] / qn, i == 0 ? one : zero);
+  const Matrix3<S> R = math::rotation_matrix<S>(qu);
+
+  // Desired force, Eq. 3.27-3.28 (+ m g e3, notes #35).
+  const S m = constant<S>(k.mass_kg);
+  Vector3<S> F;
+  for (int i = 0; i < 3; ++i) {
+    const S e_p = in.position_ref_m[i] - in.position_m[i];
+    const S e_v = in.velocity_ref_m_s[i] - in.velocity_m_s[i];
+    F[i] = (constant<S>(k.position_p[i]) * e_p + constant<S>(k.position_d[i]) * e_v) +
+           m * in.acceleration_ref_m_s2[i];
+  }
+  if (k.gravity_compensation) F[2] = F[2] + constant<S>(k.mass_kg * k.gravity_m_s2);
+
+  // Desired thrust direction b3d; |F| below a micro-newton carries none: keep e3.
+  const S tiny = constant<S>(1e-6 * k.mass_kg * k.gravity_m_s2);
+  Vector3<S> b3d = unit_or(F, tiny, e3);
+  if (k.limit_tilt) {
+    // Cone of half-angle a around +z: inside it nothing changes; above the cone's edge the
+    // horizontal part is shortened onto it (vertical part kept); level or downward F gives the
+    // cone edge on F's horizontal side, with F projected on it.
+    const S tan_a = constant<S>(k.tan_tilt);
+    const Vector3<S> F_h(F[0], F[1], zero);
+    const S h = scalar::sqrt(dot(F_h, F_h));
+    const auto outside = F[2] > zero && h > F[2] * tan_a;
+    const auto downward = !(F[2] > zero);
+    const S shrink = F[2] * tan_a / h;
+    const Vector3<S> F_cone(F[0] * shrink, F[1] * shrink, F[2]);
+    const Vector3<S> dir_h = unit_or(F_h, tiny, Vector3<S>(zero, zero, zero));
+    const auto has_dir = h > tiny;
+    const S sin_a = constant<S>(k.sin_tilt), cos_a = constant<S>(k.cos_tilt);
+    const Vector3<S> edge =
+        select(has_dir, Vector3<S>(sin_a * dir_h[0], sin_a * dir_h[1], cos_a), e3);
+    const S along = scalar::max(dot(F, edge), zero);
+    const Vector3<S> F_edge(edge[0] * along, edge[1] * along, edge[2] * along);
+    b3d = select(outside, unit_or(F_cone, tiny, e3), select(downward, edge, b3d));
+    F = select(outside, F_cone, select(downward, F_edge, F));
+  }
+
+  // Collective thrust f = F . R e3 (Eq. 3.27).
+  const Vector3<S> Re3(R(0, 2), R(1, 2), R(2, 2));
+  S f = dot(F, Re3);
+  if (k.nonnegative_thrust) f = scalar::max(f, zero);
+  const Vector3<S> M = se3_attitude_law(R, in.angular_velocity_B, b3d, in.cos_yaw, in.sin_yaw,
+                                        k.attitude_p, k.attitude_d, k.inertia_kgm2);
+  return Vector4<S>(f, M[0], M[1], M[2]);
+}
+
+}  // namespace dronetwin

@@ -1,0 +1,83 @@
+#pragma once
+// Counter-based normal streams: the n-th draw of a stream is a pure function of (key, n), so
+// many vehicles can draw their noise in any grouping, order or thread and get the same numbers.
+// The batched simulator's OU noise uses one stream per lane (key from the seed and the lane).
+//
+//   const std::uint64_t key = counter_stream_key(seed, lane);
+//   double xi = counter_normal(key, step * kCounterDrawsPerStep + j);   // any n, any order
+//
+// Bits: draw n of stream `key` is splitmix64's output at state key + (n + 1) * golden, i.e. the
+// splitmix64 sequence started at `key` and read at position n (a Weyl sequence through a
+// bijective mixer, which passes BigCrush). Keys are themselves mixed from (seed, stream id), so
+// two streams meet only if their starting points fall within a run's draw count of each other on
+// a 2^64 cycle.
+//
+// Normal: the ziggurat of noise/random.hpp, whose first candidate takes those 64 bits. About 99 %
+// of draws end there (one multiply, two table reads); the rest continue with a xoshiro256++
+// generator seeded from the bits (Random::normal_from), still a function of (key, n) alone.
+// counter_normal_pack() is the same thing for W streams at once: the common case per lane in
+// SIMD, the rest lane by lane, so every lane equals counter_normal() bit for bit.
+
+#include <cstdint>
+
+#include "dronetwin/core/simd.hpp"
+#include "dronetwin/noise/random.hpp"
+
+namespace dronetwin {
+
+/// Counter slots reserved per physics step of a stream (the state noise uses the first 13).
+inline constexpr std::uint64_t kCounterDrawsPerStep = 16;
+
+/// Key of stream `stream` under `seed`.
+inline std::uint64_t counter_stream_key(std::uint64_t seed, std::uint64_t stream) {
+  return Random::mix64(Random::mix64(seed + Random::kGolden) ^ (stream * 0xd1342543de82ef95ULL));
+}
+
+/// 64 uniform bits: draw n of stream `key`.
+inline std::uint64_t counter_bits(std::uint64_t key, std::uint64_t n) {
+  return Random::mix64(key + (n + 1) * Random::kGolden);
+}
+
+/// The normal of 64 counter bits: the ziggurat's first candidate from them and, for the rare
+/// candidate outside its rectangle, the rest from a generator seeded with them.
+inline double normal_of_counter_bits(std::uint64_t bits) {
+  Random more(bits ^ 0x6a09e667f3bcc909ULL);
+  return Random::normal_from(bits, more);
+}
+
+/// Standard normal: draw n of stream `key`.
+inline double counter_normal(std::uint64_t key, std::uint64_t n) {
+  return normal_of_counter_bits(counter_bits(key, n));
+}
+
+/// W streams at once: lane l is counter_normal(key[l], n[l]), bit for bit.
+template <int W>
+inline Pack<double, W> counter_normal_pack(const Pack<std::uint64_t, W>& key,
+                                           const Pack<std::uint64_t, W>& n) {
+  using U = Pack<std::uint64_t, W>;
+  using I = Pack<std::int64_t, W>;
+  using D = Pack<double, W>;
+  // counter_bits, per lane.
+  U z = key + (n + U(1)) * U(Random::kGolden);
+  z = (z ^ (z >> 30)) * U(0xbf58476d1ce4e5b9ULL);
+  z = (z ^ (z >> 27)) * U(0x94d049bb133111ebULL);
+  const U bits = z ^ (z >> 31);
+  // The ziggurat's first candidate (Random::normal_from).
+  const U layer = bits & U(127);
+  const D u =
+      stdx::static_simd_cast<D>(stdx::static_simd_cast<I>(bits >> 11) - I(std::int64_t{1} << 52)) *
+      D(0x1.0p-52);
+  const Random::ZigguratTables& t = Random::ziggurat();
+  const D edge([&](auto l) { return t.x[static_cast<std::size_t>(layer[l])]; });
+  const D ratio([&](auto l) { return t.ratio[static_cast<std::size_t>(layer[l])]; });
+  D x = u * edge;
+  const auto inside = stdx::abs(u) < ratio;
+  if (!stdx::all_of(inside)) {
+    for (int l = 0; l < W; ++l) {
+      if (!inside[static_cast<std::size_t>(l)]) x[l] = normal_of_counter_bits(bits[l]);
+    }
+  }
+  return x;
+}
+
+}  // namespace dronetwin

@@ -1,0 +1,92 @@
+#include "dronetwin/batch/batch_se3.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "dronetwin/core/error.hpp"
+#include "dronetwin/model/allocation.hpp"
+
+namespace dronetwin {
+
+template <class T>
+BatchSe3Controller<T>::BatchSe3Controller(std::shared_ptr<const VehicleModel> model,
+                                          const Se3Gains& gains, const Se3Options& options,
+                                          int num_vehicles)
+    : model_(std::move(model)), scalar_(model_, gains, options), law_(scalar_.law()) {
+  require(num_vehicles >= 1, "BatchSe3Controller: num_vehicles: expected >= 1, got ", num_vehicles);
+  num_vehicles_ = num_vehicles;
+  stride_ = (num_vehicles + kLanes - 1) / kLanes * kLanes;
+  const auto n = static_cast<std::size_t>(stride_);
+  reference_ = AlignedArray<T>(n * kReferenceSize);
+  for (std::size_t l = 0; l < n; ++l) reference_[9 * n + l] = T(1);  // b1d = [1, 0]: yaw 0
+  saturated_.assign(n, 0);
+  saturated_count_.assign(n, 0);
+}
+
+template <class T>
+void BatchSe3Controller<T>::set_reference(int lane, const ReferencePoint& r) {
+  require(lane >= 0 && lane < num_vehicles_, "BatchSe3Controller::set_reference: lane ", lane,
+          " is out of range (", num_vehicles_, " vehicles)");
+  const bool finite = r.position_m.allFinite() && r.velocity_m_s.allFinite() &&
+                      r.acceleration_m_s2.allFinite() && std::isfinite(r.yaw_rad);
+  require(finite, "BatchSe3Controller::set_reference: lane ", lane,
+          ": expected finite position, velocity, acceleration and yaw");
+  const auto n = static_cast<std::size_t>(stride_), l = static_cast<std::size_t>(lane);
+  for (int k = 0; k < 3; ++k) {
+    reference_[static_cast<std::size_t>(k) * n + l] = static_cast<T>(r.position_m[k]);
+    reference_[static_cast<std::size_t>(3 + k) * n + l] = static_cast<T>(r.velocity_m_s[k]);
+    reference_[static_cast<std::size_t>(6 + k) * n + l] = static_cast<T>(r.acceleration_m_s2[k]);
+  }
+  // As Se3Controller: cos and sin of the yaw in double.
+  reference_[9 * n + l] = static_cast<T>(std::cos(r.yaw_rad));
+  reference_[10 * n + l] = static_cast<T>(std::sin(r.yaw_rad));
+}
+
+template <class T>
+void BatchSe3Controller<T>::reset_counters() {
+  std::fill(saturated_count_.begin(), saturated_count_.end(), 0);
+}
+
+template <class T>
+void BatchSe3Controller<T>::references(int pack, const Mask& running, const StateVectorT<Lanes>& x,
+                                       std::array<Lanes, kMaxRotors>& reference, Mask& failed) {
+  using P = Lanes;
+  using namespace state_index;
+  const auto n = static_cast<std::size_t>(stride_);
+  const std::size_t base = static_cast<std::size_t>(pack) * kLanes;
+  const auto ref = [&](int k) {
+    return P(&reference_[static_cast<std::size_t>(k) * n + base], stdx::vector_aligned);
+  };
+  Se3LawInput<P> in;
+  for (int k = 0; k < 3; ++k) {
+    in.position_m[k] = x[kPosition + k];
+    in.velocity_m_s[k] = x[kVelocity + k];
+    in.angular_velocity_B[k] = x[kAngularVelocity + k];
+    in.position_ref_m[k] = ref(k);
+    in.velocity_ref_m_s[k] = ref(3 + k);
+    in.acceleration_ref_m_s2[k] = ref(6 + k);
+  }
+  for (int k = 0; k < 4; ++k) in.quaternion[k] = x[kQuaternion + k];
+  in.cos_yaw = ref(9);
+  in.sin_yaw = ref(10);
+  const Vector4<P> u = se3_law<P>(law_, in);
+  // ControllerBase refuses a non-finite output; here the lane stops instead.
+  Mask ok = running;
+  for (int k = 0; k < 4; ++k) ok = ok && stdx::abs(u[k]) <= P(std::numeric_limits<T>::max());
+  failed = running && !ok;
+  const ThrustFirstAllocation<P> a = allocate_thrust_first<P>(*model_, u);
+  for (int i = 0; i < model_->num_rotors(); ++i)
+    stdx::where(ok, reference[static_cast<std::size_t>(i)]) =
+        a.speeds_rad_s[static_cast<std::size_t>(i)];
+  const auto saturated = a.saturated && ok;
+  for (int l = 0; l < kLanes; ++l) {
+    if (!ok[l]) continue;
+    saturated_[base + l] = saturated[l] ? 1 : 0;
+    saturated_count_[base + l] += saturated[l] ? 1 : 0;
+  }
+}
+
+template class BatchSe3Controller<double>;
+template class BatchSe3Controller<float>;
+
+}  // namespace dronetwin
