@@ -400,9 +400,15 @@ int BatchSimulator<T>::run_steps(std::int64_t n, BatchInnerLoop<T>* inner_loop) 
     // hand-out cheap.
     constexpr int kPacksPerTask = 4;
     const int tasks = (num_packs_ + kPacksPerTask - 1) / kPacksPerTask;
-    pool_->run(tasks, [this, n, inner_loop](int task) {
+    const bool extras = inner_loop != nullptr || config_.noise.enabled;
+    pool_->run(tasks, [this, n, inner_loop, extras](int task) {
       const int end = std::min(num_packs_, (task + 1) * kPacksPerTask);
-      for (int c = task * kPacksPerTask; c < end; ++c) step_pack(c, n, inner_loop);
+      for (int c = task * kPacksPerTask; c < end; ++c) {
+        if (extras)
+          step_pack<true>(c, n, inner_loop);
+        else
+          step_pack<false>(c, n, inner_loop);
+      }
     });
   }
   int failed = 0;
@@ -461,6 +467,7 @@ StateVector lane_state(const StateVectorT<P>& x, int l) {
 // kernel (Eigen's loops over packs and the pack operators) instead of calling out per operation,
 // which is what makes the pack kernel faster than the scalar one (docs/batch.md).
 template <class T>
+template <bool kExtras>
 DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
                                                     BatchInnerLoop<T>* inner_loop) {
   using P = Lanes;
@@ -529,7 +536,7 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
   // OU state noise (Eq. 3.5) on a counter-based stream per lane: draw j of the lane's step k is
   // counter_normal(key, k * kCounterDrawsPerStep + j), whatever the pack, thread or call.
   using U = Pack<std::uint64_t, kLanes>;
-  const bool noise = config_.noise.enabled;
+  const bool noise = kExtras && config_.noise.enabled;
   StateVectorT<P> y;
   U key(0), first_draw(0);
   struct BlockPacks {
@@ -554,7 +561,7 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
 
   for (std::int64_t s = 0; s < n; ++s) {
     if (stdx::none_of(running)) break;
-    if (inner_loop != nullptr) {
+    if (kExtras && inner_loop != nullptr) {
       // The controller sees what a sensor would: state + noise (ClosedLoop's measured_state()).
       StateVectorT<P> measured = x;
       if (noise)
@@ -629,12 +636,11 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
       stdx::where(commit, speed[r]) = w;
     }
     if (noise) {
+      std::array<Pack<double, kLanes>, kStateSize> normals;
+      counter_normals_pack<kLanes, kStateSize>(
+          key, first_draw + U(static_cast<std::uint64_t>(s) * kCounterDrawsPerStep), normals);
       std::array<P, kStateSize> xi;
-      const U draw = first_draw + U(static_cast<std::uint64_t>(s) * kCounterDrawsPerStep);
-      for (int j = 0; j < kStateSize; ++j) {
-        const auto d = counter_normal_pack<kLanes>(key, draw + U(static_cast<std::uint64_t>(j)));
-        xi[static_cast<std::size_t>(j)] = stdx::static_simd_cast<P>(d);
-      }
+      for (std::size_t j = 0; j < kStateSize; ++j) xi[j] = stdx::static_simd_cast<P>(normals[j]);
       StateVectorT<P> y_next = y;
       for (std::size_t b = 0; b < 4; ++b) {
         const BlockPacks& c = blocks[b];
@@ -657,7 +663,7 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
   for (int i = 0; i < nr; ++i)
     store(speed[static_cast<std::size_t>(i)], &rotor_speed_[i * stride + base]);
   // The inner loop changed the references of running lanes only (BatchInnerLoop::references).
-  if (inner_loop != nullptr)
+  if (kExtras && inner_loop != nullptr)
     for (int i = 0; i < nr; ++i)
       store(reference[static_cast<std::size_t>(i)], &rotor_reference_[i * stride + base]);
   for (int l = 0; l < kLanes; ++l) step_count_[base + l] += taken[static_cast<std::size_t>(l)];

@@ -46,6 +46,21 @@ TEST(CounterNormal, PacksEqualTheScalarStreamBitForBitIncludingTheSlowPath) {
   EXPECT_GT(slow, 1000);
 }
 
+TEST(CounterNormal, ThirteenDrawsAtOnceEqualTheScalarStream) {
+  constexpr int W = 8;
+  using U = Pack<std::uint64_t, W>;
+  for (std::uint64_t round = 0; round < 3000; ++round) {
+    const U key([&](auto l) { return counter_stream_key(round, l); });
+    const U first([&](auto l) { return (round + l) * kCounterDrawsPerStep; });
+    std::array<Pack<double, W>, 13> x;
+    counter_normals_pack<W, 13>(key, first, x);
+    for (std::size_t j = 0; j < 13; ++j)
+      for (int l = 0; l < W; ++l)
+        ASSERT_EQ(bits_of(x[j][l]), bits_of(counter_normal(key[l], first[l] + j)))
+            << "round " << round << " draw " << j << " lane " << l;
+  }
+}
+
 /// Standard normal CDF.
 double phi(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
 

@@ -211,6 +211,10 @@ class BatchSimulator {
   std::size_t lane_index(int lane) const;
   void rebuild_pack(int pack);
   // Flattened (every call inlined): see the definition.
+  // kExtras: noise or an inner loop may run. The plain instance (neither) keeps the physics
+  // loop free of their state, which in one shared loop cost the open-loop step a third of its
+  // speed (register pressure in the flattened loop).
+  template <bool kExtras>
   DRONETWIN_FLATTEN void step_pack(int pack, std::int64_t n, BatchInnerLoop<T>* inner_loop);
   int run_steps(std::int64_t n, BatchInnerLoop<T>* inner_loop);
   void check_inputs(int pack);

@@ -18,6 +18,8 @@
 // counter_normal_pack() is the same thing for W streams at once: the common case per lane in
 // SIMD, the rest lane by lane, so every lane equals counter_normal() bit for bit.
 
+#include <array>
+#include <cmath>
 #include <cstdint>
 
 #include "dronetwin/core/simd.hpp"
@@ -50,34 +52,56 @@ inline double counter_normal(std::uint64_t key, std::uint64_t n) {
   return normal_of_counter_bits(counter_bits(key, n));
 }
 
+/// Draws first[l] + j, j = 0 .. N-1, of W streams at once: out[j] lane l is
+/// counter_normal(key[l], first[l] + j), bit for bit. The N candidates are formed together and the
+/// rare lanes that leave the ziggurat's rectangle are finished afterwards, lane by lane, so the
+/// common path has no branch per draw.
+template <int W, std::size_t N>
+inline void counter_normals_pack(const Pack<std::uint64_t, W>& key,
+                                 const Pack<std::uint64_t, W>& first,
+                                 std::array<Pack<double, W>, N>& out) {
+  using U = Pack<std::uint64_t, W>;
+  using I = Pack<std::int64_t, W>;
+  using D = Pack<double, W>;
+  const Random::ZigguratTables& t = Random::ziggurat();
+  // Weyl state of draw first: key + (first + 1) golden; draw first + j adds j golden.
+  const U start = key + (first + U(1)) * U(Random::kGolden);
+  std::array<U, N> bits;
+  std::array<typename D::mask_type, N> inside;
+  bool all_inside = true;
+#pragma GCC unroll 16
+  for (std::size_t j = 0; j < N; ++j) {
+    U z = start + U(static_cast<std::uint64_t>(j) * Random::kGolden);
+    z = (z ^ (z >> 30)) * U(0xbf58476d1ce4e5b9ULL);
+    z = (z ^ (z >> 27)) * U(0x94d049bb133111ebULL);
+    bits[j] = z ^ (z >> 31);
+    // The ziggurat's first candidate (Random::normal_from).
+    const U layer = bits[j] & U(127);
+    const D u = stdx::static_simd_cast<D>(stdx::static_simd_cast<I>(bits[j] >> 11) -
+                                          I(std::int64_t{1} << 52)) *
+                D(0x1.0p-52);
+    const D edge([&](auto l) { return t.x[static_cast<std::size_t>(layer[l])]; });
+    const D ratio([&](auto l) { return t.ratio[static_cast<std::size_t>(layer[l])]; });
+    out[j] = u * edge;
+    inside[j] = stdx::abs(u) < ratio;
+    all_inside = all_inside && stdx::all_of(inside[j]);
+  }
+  if (all_inside) return;
+  // About one lane-draw in 80: finish those alone.
+  for (std::size_t j = 0; j < N; ++j) {
+    if (stdx::all_of(inside[j])) continue;
+    for (int l = 0; l < W; ++l)
+      if (!inside[j][l]) out[j][l] = normal_of_counter_bits(bits[j][l]);
+  }
+}
+
 /// W streams at once: lane l is counter_normal(key[l], n[l]), bit for bit.
 template <int W>
 inline Pack<double, W> counter_normal_pack(const Pack<std::uint64_t, W>& key,
                                            const Pack<std::uint64_t, W>& n) {
-  using U = Pack<std::uint64_t, W>;
-  using I = Pack<std::int64_t, W>;
-  using D = Pack<double, W>;
-  // counter_bits, per lane.
-  U z = key + (n + U(1)) * U(Random::kGolden);
-  z = (z ^ (z >> 30)) * U(0xbf58476d1ce4e5b9ULL);
-  z = (z ^ (z >> 27)) * U(0x94d049bb133111ebULL);
-  const U bits = z ^ (z >> 31);
-  // The ziggurat's first candidate (Random::normal_from).
-  const U layer = bits & U(127);
-  const D u =
-      stdx::static_simd_cast<D>(stdx::static_simd_cast<I>(bits >> 11) - I(std::int64_t{1} << 52)) *
-      D(0x1.0p-52);
-  const Random::ZigguratTables& t = Random::ziggurat();
-  const D edge([&](auto l) { return t.x[static_cast<std::size_t>(layer[l])]; });
-  const D ratio([&](auto l) { return t.ratio[static_cast<std::size_t>(layer[l])]; });
-  D x = u * edge;
-  const auto inside = stdx::abs(u) < ratio;
-  if (!stdx::all_of(inside)) {
-    for (int l = 0; l < W; ++l) {
-      if (!inside[static_cast<std::size_t>(l)]) x[l] = normal_of_counter_bits(bits[l]);
-    }
-  }
-  return x;
+  std::array<Pack<double, W>, 1> x;
+  counter_normals_pack<W, 1>(key, n, x);
+  return x[0];
 }
 
 }  // namespace dronetwin
