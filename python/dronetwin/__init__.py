@@ -136,12 +136,18 @@ def BatchSimulator(model, config=None, num_vehicles=1, num_threads=1, dtype=_np.
     """
     if config is None:
         config = SimConfig()
+    cls = _by_dtype("BatchSimulator", dtype, BatchSimulator64, BatchSimulator32)
+    return cls(model, config, num_vehicles, num_threads)
+
+
+def _by_dtype(what, dtype, f64, f32):
+    """The float64 or the float32 class of a batched object, by numpy dtype."""
     dtype = _np.dtype(dtype)
     if dtype == _np.float64:
-        return BatchSimulator64(model, config, num_vehicles, num_threads)
+        return f64
     if dtype == _np.float32:
-        return BatchSimulator32(model, config, num_vehicles, num_threads)
-    raise ValueError(f"BatchSimulator: dtype: expected float64 or float32, got {dtype}")
+        return f32
+    raise ValueError(f"{what}: dtype: expected float64 or float32, got {dtype}")
 
 
 def BatchSe3Controller(model, gains, options, num_vehicles, dtype=_np.float64):
@@ -154,9 +160,36 @@ def BatchSe3Controller(model, gains, options, num_vehicles, dtype=_np.float64):
     In float64 a lane equals Se3Controller flown by ClosedLoop at the physics rate. ``dtype``
     must be the batch's.
     """
-    dtype = _np.dtype(dtype)
-    if dtype == _np.float64:
-        return BatchSe3Controller64(model, gains, options, num_vehicles)
-    if dtype == _np.float32:
-        return BatchSe3Controller32(model, gains, options, num_vehicles)
-    raise ValueError(f"BatchSe3Controller: dtype: expected float64 or float32, got {dtype}")
+    cls = _by_dtype("BatchSe3Controller", dtype, BatchSe3Controller64, BatchSe3Controller32)
+    return cls(model, gains, options, num_vehicles)
+
+
+def BatchBodyRateController(model, gains, num_vehicles, dtype=_np.float64):
+    """The body-rate (CTBR) controller for every lane of a batch, run inside
+    ``BatchSimulator.step``: each lane's command [T (N), wx, wy, wz (rad/s)] becomes body torques
+    tau = J K (w_cmd - w) + w x J w and rotor references (thrust first):
+
+        rates = dt.BatchBodyRateController(model, dt.BodyRateGains(), 4096)
+        rates.command[:] = actions                   # (N, 4) writable view
+        batch.step(10, rates)                        # e.g. a 100 Hz policy over 1 kHz physics
+
+    In float64 a lane equals BodyRateController flown by ClosedLoop at the physics rate.
+    ``dtype`` must be the batch's.
+    """
+    cls = _by_dtype("BatchBodyRateController", dtype, BatchBodyRateController64,
+                    BatchBodyRateController32)
+    return cls(model, gains, num_vehicles)
+
+
+def BatchCascadedPid(model, gains, options, control_period_s, num_vehicles, dtype=_np.float64):
+    """The cascaded PID for every lane of a batch, run inside ``BatchSimulator.step`` every
+    physics step (so ``control_period_s`` is the batch's ``dt_s``):
+
+        pid = dt.BatchCascadedPid(model, gains, options, batch.dt_s, 4096)
+        pid.reference[:, 0:3] = targets              # (N, 8): p, v, yaw, yaw rate
+        batch.step(1000, pid)
+
+    In float64 a lane equals CascadedPid flown by ClosedLoop at the physics rate.
+    """
+    cls = _by_dtype("BatchCascadedPid", dtype, BatchCascadedPid64, BatchCascadedPid32)
+    return cls(model, gains, options, control_period_s, num_vehicles)

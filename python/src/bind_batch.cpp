@@ -13,6 +13,8 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "dronetwin/batch/batch_body_rate.hpp"
+#include "dronetwin/batch/batch_pid.hpp"
 #include "dronetwin/batch/batch_se3.hpp"
 #include "dronetwin/batch/batch_simulator.hpp"
 
@@ -249,8 +251,8 @@ void bind_one(py::module_& m, const char* class_name, const char* dtype) {
           },
           py::arg("n") = 1, py::arg("inner_loop") = py::none(),
           "Steps every running lane n times (GIL released); with an inner_loop (a "
-          "BatchSe3Controller) the controller sets each lane's rotor references from its "
-          "measured state before every physics step. Returns how many lanes are not ok.")
+          "BatchSe3Controller or BatchBodyRateController) it sets each lane's rotor references "
+          "from its measured state before every physics step. Returns how many lanes are not ok.")
       .def(
           "set_generalized_forces",
           [](B& b, py::handle u) {
@@ -397,6 +399,89 @@ void bind_se3(py::module_& m, const char* base_name, const char* name, const cha
           "(N,) int64: updates per lane whose allocation saturated.");
 }
 
+template <class T>
+void bind_body_rate(py::module_& m, const char* name, const char* dtype) {
+  using C = BatchBodyRateController<T>;
+  py::class_<C, BatchInnerLoop<T>>(
+      m, name,
+      (std::string("The body-rate (CTBR) controller for every lane of a ") + dtype +
+       " batch (see dronetwin.BatchBodyRateController).")
+          .c_str())
+      .def(py::init([](const std::shared_ptr<VehicleModel>& model, const BodyRateGains& gains,
+                       int num_vehicles) {
+             if (!model) throw py::value_error("model: expected a VehicleModel, got None");
+             return std::make_unique<C>(model, gains, num_vehicles);
+           }),
+           py::arg("model"), py::arg("gains"), py::arg("num_vehicles"))
+      .def_property_readonly("size", &C::size)
+      .def_property_readonly(
+          "command",
+          [](py::object self) {
+            C& c = self.cast<C&>();
+            const auto item = static_cast<py::ssize_t>(sizeof(T));
+            return py::array_t<T>({static_cast<py::ssize_t>(c.size()), py::ssize_t{4}},
+                                  {item, static_cast<py::ssize_t>(c.stride()) * item},
+                                  c.command_data(), self);
+          },
+          "(N, 4) writable view: [T (N), wx, wy, wz (rad/s)] per lane; a non-finite entry stops "
+          "its lane with CONTROLLER_FAILED at the next step.")
+      .def(
+          "set_command",
+          [](C& c, int lane, double thrust_N, py::handle rates) {
+            c.set_command(lane, thrust_N,
+                          to_fixed<3>(rates, "BatchBodyRateController.set_command: rates"));
+          },
+          py::arg("lane"), py::arg("thrust_N"), py::arg("rates_rad_s"),
+          "One lane's command, checked (finite, thrust >= 0).")
+      .def(
+          "saturated",
+          [](const C& c) {
+            py::array_t<std::uint8_t> a(c.size());
+            for (int l = 0; l < c.size(); ++l) a.mutable_at(l) = c.saturated_data()[l];
+            return a;
+          },
+          "(N,) uint8: 1 where the last allocation saturated.");
+}
+
+template <class T>
+void bind_pid(py::module_& m, const char* name, const char* dtype) {
+  using C = BatchCascadedPid<T>;
+  py::class_<C, BatchInnerLoop<T>>(m, name,
+                                   (std::string("The cascaded PID for every lane of a ") + dtype +
+                                    " batch (see dronetwin.BatchCascadedPid).")
+                                       .c_str())
+      .def(py::init([](const std::shared_ptr<VehicleModel>& model, const PidGains& gains,
+                       const PidOptions& options, double control_period_s, int num_vehicles) {
+             if (!model) throw py::value_error("model: expected a VehicleModel, got None");
+             return std::make_unique<C>(model, gains, options, control_period_s, num_vehicles);
+           }),
+           py::arg("model"), py::arg("gains"), py::arg("options"), py::arg("control_period_s"),
+           py::arg("num_vehicles"))
+      .def_property_readonly("size", &C::size)
+      .def_property_readonly(
+          "reference",
+          [](py::object self) {
+            C& c = self.cast<C&>();
+            const auto item = static_cast<py::ssize_t>(sizeof(T));
+            return py::array_t<T>(
+                {static_cast<py::ssize_t>(c.size()), static_cast<py::ssize_t>(C::kReferenceSize)},
+                {item, static_cast<py::ssize_t>(c.stride()) * item}, c.reference_data(), self);
+          },
+          "(N, 8) writable view: [x, y, z, vx, vy, vz, yaw, yaw_rate] per lane.")
+      .def(
+          "integral",
+          [](const C& c) {
+            py::array_t<T> a({static_cast<py::ssize_t>(c.size()), py::ssize_t{4}});
+            for (int l = 0; l < c.size(); ++l)
+              for (int k = 0; k < 4; ++k)
+                a.mutable_at(l, k) = c.integral_data()[k * c.stride() + l];
+            return a;
+          },
+          "(N, 4): each lane's integral state [x, y, z, psi] (a copy).")
+      .def("reset_integral", &C::reset_integral, py::arg("lane"),
+           "Clears one lane's integral (a new episode).");
+}
+
 }  // namespace
 
 void bind_batch(py::module_& m) {
@@ -404,6 +489,10 @@ void bind_batch(py::module_& m) {
   bind_one<float>(m, "BatchSimulator32", "float32");
   bind_se3<double>(m, "BatchInnerLoop64", "BatchSe3Controller64", "float64");
   bind_se3<float>(m, "BatchInnerLoop32", "BatchSe3Controller32", "float32");
+  bind_body_rate<double>(m, "BatchBodyRateController64", "float64");
+  bind_body_rate<float>(m, "BatchBodyRateController32", "float32");
+  bind_pid<double>(m, "BatchCascadedPid64", "float64");
+  bind_pid<float>(m, "BatchCascadedPid32", "float32");
 }
 
 }  // namespace dronetwin::python

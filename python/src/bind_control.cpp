@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "bindings.hpp"
+#include "dronetwin/control/body_rate.hpp"
 #include "dronetwin/control/closed_loop.hpp"
 #include "dronetwin/control/controller_base.hpp"
 #include "dronetwin/control/pid.hpp"
@@ -508,6 +509,30 @@ void bind_control(py::module_& m) {
           "gains", [](const Se3Controller& c) { return c.gains(); }, "A copy of the gains.")
       .def_property_readonly(
           "options", [](const Se3Controller& c) { return c.options(); }, "A copy of the options.");
+
+  py::class_<BodyRateGains>(m, "BodyRateGains",
+                            "K_w per body axis, 1/s (default [20, 20, 10]: time constants of "
+                            "each rate's first-order response).")
+      .def(py::init<>())
+      .def_readwrite("rate_p", &BodyRateGains::rate_p);
+
+  py::class_<BodyRateController, ControllerBase>(
+      m, "BodyRateController",
+      "Collective thrust + body rates (CTBR): tau = J K_w (w_cmd - w) + w x J w. The command "
+      "comes from set_command(thrust_N, rates_rad_s); the loop's reference is not used.")
+      .def(py::init([](const std::shared_ptr<VehicleModel>& model, const BodyRateGains& g,
+                       AllocationMethod a) { return new BodyRateController(model, g, a); }),
+           py::arg("model"), py::arg("gains") = BodyRateGains{},
+           py::arg("allocation") = AllocationMethod::kExact)
+      .def(
+          "set_command",
+          [](BodyRateController& c, double thrust_N, py::handle rates) {
+            c.set_command(thrust_N, to_fixed<3>(rates, "BodyRateController.set_command: rates"));
+          },
+          py::arg("thrust_N"), py::arg("rates_rad_s"))
+      .def_property_readonly("thrust_command_N", &BodyRateController::thrust_command_N)
+      .def_property_readonly("rate_command_rad_s",
+                             [](const BodyRateController& c) { return c.rate_command_rad_s(); });
 
   py::enum_<NmpcLinearSolver>(m, "NmpcLinearSolver")
       .value("DENSE_QR", NmpcLinearSolver::kDenseQr)

@@ -38,6 +38,7 @@ void BatchBodyRateController<T>::set_command(int lane, double thrust_N, const Ve
 template <class T>
 void BatchBodyRateController<T>::references(int pack, const Mask& running,
                                             const StateVectorT<Lanes>& x,
+                                            const StateVectorT<Lanes>*,
                                             std::array<Lanes, kMaxRotors>& reference,
                                             Mask& failed) {
   using P = Lanes;

@@ -49,6 +49,7 @@ void BatchSe3Controller<T>::reset_counters() {
 
 template <class T>
 void BatchSe3Controller<T>::references(int pack, const Mask& running, const StateVectorT<Lanes>& x,
+                                       const StateVectorT<Lanes>*,
                                        std::array<Lanes, kMaxRotors>& reference, Mask& failed) {
   using P = Lanes;
   using namespace state_index;

@@ -146,6 +146,7 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
   if (config_.noise.enabled) {
     noise_ = AlignedArray<T>(n * kStateSize);
     measured_ = AlignedArray<T>(n * kStateSize);
+    derivative_noise_ = AlignedArray<T>(n * kStateSize);
   }
 
   for (int p = 0; p < kNumModelParameters; ++p)
@@ -287,6 +288,7 @@ void BatchSimulator<T>::reset(int lane, const StateVector& state,
   if (config_.noise.enabled) {
     for (int k = 0; k < kStateSize; ++k) {
       noise_[static_cast<std::size_t>(k) * n + l] = T(0);
+      derivative_noise_[static_cast<std::size_t>(k) * n + l] = T(0);
       measured_[static_cast<std::size_t>(k) * n + l] = state_[static_cast<std::size_t>(k) * n + l];
     }
   }
@@ -558,6 +560,37 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
     drift_scale = P(static_cast<T>(ou.drift == OuDrift::kPerSample ? 1.0 : config_.dt_s));
     sqrt_dt = P(static_cast<T>(std::sqrt(config_.dt_s)));
   }
+  // Advances an OU process of the committed lanes by one step, with draws offset .. offset + 12
+  // of the lanes' step s.
+  const auto advance_noise = [&](StateVectorT<P>& process, std::int64_t s, std::uint64_t offset,
+                                 const M& commit) {
+    std::array<Pack<double, kLanes>, kStateSize> normals;
+    counter_normals_pack<kLanes, kStateSize>(
+        key, first_draw + U(static_cast<std::uint64_t>(s) * kCounterDrawsPerStep + offset),
+        normals);
+    std::array<P, kStateSize> xi;
+    for (std::size_t j = 0; j < kStateSize; ++j) xi[j] = stdx::static_simd_cast<P>(normals[j]);
+    StateVectorT<P> next = process;
+    for (std::size_t b = 0; b < 4; ++b) {
+      const BlockPacks& c = blocks[b];
+      const int o = kOuBlockOffset[b];
+      P* yb = next.data() + o;
+      const P* xb = xi.data() + o;
+      if (kOuBlockSize[b] == 4)
+        ou_update_block<4>(yb, xb, c.theta_a, c.theta_b, c.sigma_a, c.sigma_b, drift_scale,
+                           sqrt_dt);
+      else
+        ou_update_block<3>(yb, xb, c.theta_a, c.theta_b, c.sigma_a, c.sigma_b, drift_scale,
+                           sqrt_dt);
+    }
+    for (int k = 0; k < kStateSize; ++k) stdx::where(commit, process[k]) = next[k];
+  };
+  // The measured state derivative, for an inner loop that reads it (and its own OU process).
+  const bool wants_derivative =
+      kExtras && inner_loop != nullptr && inner_loop->uses_state_derivative();
+  StateVectorT<P> yd;
+  if (noise && wants_derivative)
+    for (int k = 0; k < kStateSize; ++k) yd[k] = load<P>(&derivative_noise_[k * stride + base]);
 
   for (std::int64_t s = 0; s < n; ++s) {
     if (stdx::none_of(running)) break;
@@ -566,8 +599,18 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
       StateVectorT<P> measured = x;
       if (noise)
         for (int k = 0; k < kStateSize; ++k) measured[k] = x[k] + y[k];
+      StateVectorT<P> derivative;
+      if (wants_derivative) {
+        // As Simulator::measured_state_derivative(): f(x) at the current rotor speeds + noise.
+        HeldRotorTerms<P> held;
+        kernel.prepare(speed, held);
+        derivative = kernel.derivative(held, x, wind, gravity);
+        if (noise)
+          for (int k = 0; k < kStateSize; ++k) derivative[k] = derivative[k] + yd[k];
+      }
       M controller_failed(false);
-      inner_loop->references(pack, running, measured, reference, controller_failed);
+      inner_loop->references(pack, running, measured, wants_derivative ? &derivative : nullptr,
+                             reference, controller_failed);
       controller_failed = controller_failed && running;
       if (stdx::any_of(controller_failed)) {
         for (int l = 0; l < kLanes; ++l) {
@@ -636,25 +679,8 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
       stdx::where(commit, speed[r]) = w;
     }
     if (noise) {
-      std::array<Pack<double, kLanes>, kStateSize> normals;
-      counter_normals_pack<kLanes, kStateSize>(
-          key, first_draw + U(static_cast<std::uint64_t>(s) * kCounterDrawsPerStep), normals);
-      std::array<P, kStateSize> xi;
-      for (std::size_t j = 0; j < kStateSize; ++j) xi[j] = stdx::static_simd_cast<P>(normals[j]);
-      StateVectorT<P> y_next = y;
-      for (std::size_t b = 0; b < 4; ++b) {
-        const BlockPacks& c = blocks[b];
-        const int o = kOuBlockOffset[b];
-        P* yb = y_next.data() + o;
-        const P* xb = xi.data() + o;
-        if (kOuBlockSize[b] == 4)
-          ou_update_block<4>(yb, xb, c.theta_a, c.theta_b, c.sigma_a, c.sigma_b, drift_scale,
-                             sqrt_dt);
-        else
-          ou_update_block<3>(yb, xb, c.theta_a, c.theta_b, c.sigma_a, c.sigma_b, drift_scale,
-                             sqrt_dt);
-      }
-      for (int k = 0; k < kStateSize; ++k) stdx::where(commit, y[k]) = y_next[k];
+      advance_noise(y, s, 0, commit);
+      if (wants_derivative) advance_noise(yd, s, 16, commit);
     }
     running = commit;
   }
@@ -667,6 +693,8 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
     for (int i = 0; i < nr; ++i)
       store(reference[static_cast<std::size_t>(i)], &rotor_reference_[i * stride + base]);
   for (int l = 0; l < kLanes; ++l) step_count_[base + l] += taken[static_cast<std::size_t>(l)];
+  if (noise && wants_derivative)
+    for (int k = 0; k < kStateSize; ++k) store(yd[k], &derivative_noise_[k * stride + base]);
   if (noise) {
     for (int k = 0; k < kStateSize; ++k) {
       store(y[k], &noise_[k * stride + base]);

@@ -187,3 +187,50 @@ def test_generalized_forces_for_every_lane_flag_saturation(qdrone2):
     np.testing.assert_allclose(batch.rotor_speed_reference[0], qdrone2.hover_speeds_rad_s(), rtol=1e-12)
     with pytest.raises(ValueError, match=r"expected shape \(3, 4\)"):
         batch.set_generalized_forces(np.zeros((2, 4)))
+
+
+def test_batched_body_rates_equal_the_scalar_controller_in_a_closed_loop(qdrone2):
+    n = 4
+    batch = dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=n)
+    rates = dt.BatchBodyRateController(qdrone2, dt.BodyRateGains(), n)
+    hover = qdrone2.hover_speeds_rad_s()
+    batch.reset(None, dt.Simulator.hover_state([0, 0, 3]), hover)
+    thrust = qdrone2.mass_kg * 9.81
+    commands = np.array([[thrust, 0.5 * k, -0.2 * k, 0.3] for k in range(n)])
+    rates.command[:] = commands
+    assert batch.step(500, rates) == 0
+    sim = dt.Simulator(qdrone2, dt.SimConfig())
+    sim.reset(dt.Simulator.hover_state([0, 0, 3]), hover)
+    scalar = dt.BodyRateController(qdrone2)
+    scalar.set_command(commands[2, 0], commands[2, 1:])
+    dt.ClosedLoop(sim, scalar, dt.SetpointReference([0, 0, 0]), 1000.0).run(0.5)
+    np.testing.assert_array_equal(batch.state[2], sim.state)
+    # Each lane turns at (nearly) its commanded rates after 10 time constants of roll and pitch.
+    np.testing.assert_allclose(batch.state[:, 10:12], commands[:, 1:3], atol=0.03)
+    rates.command[1, 0] = np.nan
+    assert batch.step(1, rates) == 1
+    assert batch.status[1] == int(dt.StepStatus.CONTROLLER_FAILED)
+    with pytest.raises(ValueError, match="thrust"):
+        rates.set_command(0, -1.0, [0, 0, 0])
+
+
+def test_batched_pid_equals_the_scalar_pid_in_a_closed_loop(qdrone2):
+    n = 3
+    gains = dt.PidGains.thesis_simulation()
+    options = dt.PidOptions()
+    options.max_tilt_rad = 0.2
+    batch = dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=n)
+    pid = dt.BatchCascadedPid(qdrone2, gains, options, batch.dt_s, n)
+    batch.reset(None, dt.Simulator.hover_state([0, 0, 1]), qdrone2.hover_speeds_rad_s())
+    pid.reference[:, 0:3] = [[0.3, 0.0, 1.2], [0.0, -0.3, 1.0], [0.2, 0.2, 0.8]]
+    assert batch.step(2000, pid) == 0
+    sim = dt.Simulator(qdrone2, dt.SimConfig())
+    sim.reset(dt.Simulator.hover_state([0, 0, 1]), qdrone2.hover_speeds_rad_s())
+    scalar = dt.CascadedPid(qdrone2, gains, options, 1e-3)
+    loop = dt.ClosedLoop(sim, scalar, dt.SetpointReference([0.2, 0.2, 0.8]), 1000.0)
+    for _ in range(2000):
+        loop.step()
+    np.testing.assert_array_equal(batch.state[2], sim.state)
+    np.testing.assert_array_equal(pid.integral()[2], scalar.integral)
+    pid.reset_integral(2)
+    np.testing.assert_array_equal(pid.integral()[2], np.zeros(4))

@@ -6,7 +6,11 @@
 #include <atomic>
 #include <cstdlib>
 #include <new>
+#include <vector>
 
+#include "dronetwin/batch/batch_body_rate.hpp"
+#include "dronetwin/batch/batch_pid.hpp"
+#include "dronetwin/batch/batch_se3.hpp"
 #include "dronetwin/batch/batch_simulator.hpp"
 #include "dronetwin/sim/simulator.hpp"
 #include "test_support.hpp"
@@ -79,6 +83,32 @@ TEST(NoAllocation, BatchSteppingDoesNotAllocate) {
       batch.step(1);
       batch.reset(k % 100, hover, ref);
     }
+  }
+  EXPECT_EQ(g_allocations.load(), before);
+}
+
+// Noise, the three batched inner loops and the batched allocation allocate nothing per step.
+TEST(NoAllocation, BatchNoiseAndInnerLoopsDoNotAllocate) {
+  const auto model = test::load_model("qdrone2");
+  SimConfig noisy;
+  noisy.noise.enabled = true;
+  BatchSimulator<double> batch(model, noisy, 50, 2);
+  BatchSe3Controller<double> se3(model, Se3Gains::thesis(), Se3Options{}, 50);
+  BatchCascadedPid<double> pid(model, PidGains::thesis_simulation(), PidOptions{}, noisy.dt_s, 50);
+  BatchBodyRateController<double> rates(model, BodyRateGains{}, 50);
+  const StateVector hover = Simulator::hover_state(Vec3(0, 0, 1));
+  for (int l = 0; l < 50; ++l) {
+    batch.reset(l, hover, model->hover_speeds_rad_s());
+    rates.set_command(l, model->mass_kg() * 9.81, Vec3::Zero());
+  }
+  std::vector<double> u(static_cast<std::size_t>(4 * batch.stride()), 0.0);
+  const long before = g_allocations.load();
+  for (int k = 0; k < 30; ++k) {
+    batch.step(3, se3);
+    batch.step(2, pid);
+    batch.step(2, rates);
+    batch.set_generalized_forces(u.data());
+    batch.set_seed(k % 50, static_cast<std::uint64_t>(k));
   }
   EXPECT_EQ(g_allocations.load(), before);
 }

@@ -45,6 +45,7 @@ class BatchBodyRateController final : public BatchInnerLoop<T> {
   const std::uint8_t* saturated_data() const { return saturated_.data(); }
 
   void references(int pack, const Mask& running, const StateVectorT<Lanes>& measured,
+                  const StateVectorT<Lanes>* measured_derivative,
                   std::array<Lanes, kMaxRotors>& reference, Mask& failed) override;
 
  private:

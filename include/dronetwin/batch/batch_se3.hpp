@@ -56,6 +56,7 @@ class BatchSe3Controller final : public BatchInnerLoop<T> {
   void reset_counters();
 
   void references(int pack, const Mask& running, const StateVectorT<Lanes>& measured,
+                  const StateVectorT<Lanes>* measured_derivative,
                   std::array<Lanes, kMaxRotors>& reference, Mask& failed) override;
 
  private:

@@ -23,7 +23,9 @@
 // of packs are spread over a persistent thread pool. Branches on the state become per-lane
 // selects: motor rise/fall and clamping, the validity checks; ground contact takes the
 // Simulator's own contact rule for the lanes that touch the ground (an exact per-lane path, rare
-// in flight). step(n) keeps each pack in registers for all n steps.
+// in flight). step(n) keeps each pack in registers for all n steps. step(n, inner_loop) runs a
+// batched controller (batch_se3.hpp, batch_pid.hpp, batch_body_rate.hpp) before every physics
+// step, in the same loop.
 //
 // Per lane status: a lane whose step fails (non-finite, diverged, a zero quaternion, or invalid
 // inputs written into the arrays) keeps its last good state, stops, and reports why in
@@ -40,7 +42,8 @@
 // stream is not the Simulator's xoshiro stream: same process, different numbers. set_seed() gives
 // a lane its own seed (a new episode); reset() restarts the lane's noise at zero and its stream
 // at step 0, so a reset without a new seed replays the same noise, as Simulator::reset() does.
-// The batch has no state-derivative output and therefore no derivative noise.
+// The derivative noise (the Simulator's second OU process, on the measured state derivative) is
+// advanced in the steps where an inner loop reads the derivative (draws 16-28 of the step).
 //
 // Trap: one BatchSimulator is stepped by one thread at a time (it says so, SimulationError, if
 // two try); its own pool does the parallel work.
@@ -104,10 +107,16 @@ class BatchInnerLoop {
   using Mask = typename Lanes::mask_type;
   virtual ~BatchInnerLoop() = default;
   /// Rotor-speed references for lanes pack * kLanes ... (pack + 1) * kLanes - 1 from their
-  /// measured states. A lane whose output is unusable (not finite) is set in `failed`; the batch
-  /// then stops it with StepStatus::kControllerFailed. `running` marks the lanes that will step.
+  /// measured states (and, when uses_state_derivative(), their measured state derivatives;
+  /// nullptr otherwise). A lane whose output is unusable (not finite) is set in `failed`; the
+  /// batch then stops it with StepStatus::kControllerFailed. `running` marks the lanes that will
+  /// step; only their references may change.
   virtual void references(int pack, const Mask& running, const StateVectorT<Lanes>& measured,
+                          const StateVectorT<Lanes>* measured_derivative,
                           std::array<Lanes, kMaxRotors>& reference, Mask& failed) = 0;
+  /// True when references() reads the measured state derivative (the batch then evaluates the
+  /// force model once more per step, as ClosedLoop does for such a controller).
+  virtual bool uses_state_derivative() const { return false; }
   /// Checked by BatchSimulator::step before it runs: the loop was built for this batch.
   virtual int size() const = 0;
   virtual int num_rotors() const = 0;
@@ -229,7 +238,7 @@ class BatchSimulator {
 
   AlignedArray<T> state_, rotor_speed_, rotor_reference_, wind_;
   // OU state noise and state + noise (allocated when noise is on), per-lane stream keys.
-  AlignedArray<T> noise_, measured_;
+  AlignedArray<T> noise_, measured_, derivative_noise_;
   AlignedArray<std::uint64_t> noise_key_;
   std::vector<std::uint64_t> seed_;
   std::vector<std::uint8_t> status_;

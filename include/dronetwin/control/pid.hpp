@@ -35,6 +35,7 @@
 #include <string_view>
 
 #include "dronetwin/control/controller_base.hpp"
+#include "dronetwin/control/pid_law.hpp"
 
 namespace dronetwin {
 
@@ -90,6 +91,9 @@ struct PidOptions {
   PidYawLoop yaw_loop = PidYawLoop::kThesis;
 };
 
+/// The constants of the law (control/pid_law.hpp) for these gains and options.
+PidLawConstants pid_law_constants(const PidGains& gains, const PidOptions& options);
+
 class CascadedPid final : public ControllerBase {
  public:
   /// Throws InvalidArgument for negative or non-finite gains, non-positive mass, gravity or
@@ -109,6 +113,7 @@ class CascadedPid final : public ControllerBase {
   void set_control_period(double dt_s);
   /// Integral state sum_i e_p(t_i) dt per axis [x, y, z, psi] (after clamping).
   const Vec4& integral() const { return integral_; }
+  const PidLawConstants& law() const { return law_; }
 
  protected:
   GeneralizedForce do_calculate_u(const ControlInput& in) override;
@@ -116,6 +121,7 @@ class CascadedPid final : public ControllerBase {
  private:
   PidGains gains_;
   PidOptions options_;
+  PidLawConstants law_;
   double dt_s_;
   /// sum_i e_p(t_i) dt, accumulated one sample (times the current period) per call.
   Vec4 integral_ = Vec4::Zero();

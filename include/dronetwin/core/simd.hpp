@@ -23,6 +23,7 @@
 #include <Eigen/Core>
 #include <experimental/simd>
 #include <limits>
+#include <type_traits>
 
 #include "dronetwin/core/scalar.hpp"
 
@@ -44,6 +45,26 @@ inline T lane(const stdx::simd<T, Abi>& p, int i) {
 template <class P, class F>
 inline P pack_from(F&& f) {
   return P([&](auto i) { return static_cast<typename P::value_type>(f(static_cast<int>(i))); });
+}
+
+/// f applied to each lane of x (f(x) for a plain number): for the library functions a pack's
+/// own math does not reproduce bit for bit (atan2, asin, sin, cos of glibc), so a lane equals the
+/// scalar code that calls them.
+template <class S, class F>
+inline S lanewise(F&& f, const S& x) {
+  if constexpr (std::is_arithmetic_v<S>) {
+    return f(x);
+  } else {
+    return S([&](auto l) { return f(x[l]); });
+  }
+}
+template <class S, class F>
+inline S lanewise(F&& f, const S& x, const S& y) {
+  if constexpr (std::is_arithmetic_v<S>) {
+    return f(x, y);
+  } else {
+    return S([&](auto l) { return f(x[l], y[l]); });
+  }
 }
 
 namespace scalar {

@@ -27,8 +27,9 @@
 
 namespace dronetwin {
 
-/// Counter slots reserved per physics step of a stream (the state noise uses the first 13).
-inline constexpr std::uint64_t kCounterDrawsPerStep = 16;
+/// Counter slots reserved per physics step of a stream: the state noise draws 0-12, the batch's
+/// derivative noise 16-28.
+inline constexpr std::uint64_t kCounterDrawsPerStep = 32;
 
 /// Key of stream `stream` under `seed`.
 inline std::uint64_t counter_stream_key(std::uint64_t seed, std::uint64_t stream) {

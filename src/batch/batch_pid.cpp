@@ -1,0 +1,102 @@
+#include "dronetwin/batch/batch_pid.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "dronetwin/core/error.hpp"
+#include "dronetwin/model/allocation.hpp"
+
+namespace dronetwin {
+
+template <class T>
+BatchCascadedPid<T>::BatchCascadedPid(std::shared_ptr<const VehicleModel> model,
+                                      const PidGains& gains, const PidOptions& options,
+                                      double control_period_s, int num_vehicles)
+    : model_(std::move(model)),
+      scalar_(model_, gains, options, control_period_s),
+      law_(scalar_.law()),
+      dt_s_(control_period_s) {
+  require(num_vehicles >= 1, "BatchCascadedPid: num_vehicles: expected >= 1, got ", num_vehicles);
+  num_vehicles_ = num_vehicles;
+  stride_ = (num_vehicles + kLanes - 1) / kLanes * kLanes;
+  const auto n = static_cast<std::size_t>(stride_);
+  reference_ = AlignedArray<T>(n * kReferenceSize);
+  integral_ = AlignedArray<T>(n * 4);
+  saturated_.assign(n, 0);
+}
+
+template <class T>
+void BatchCascadedPid<T>::set_reference(int lane, const ReferencePoint& r) {
+  require(lane >= 0 && lane < num_vehicles_, "BatchCascadedPid::set_reference: lane ", lane,
+          " is out of range (", num_vehicles_, " vehicles)");
+  require(r.position_m.allFinite() && r.velocity_m_s.allFinite() && std::isfinite(r.yaw_rad) &&
+              std::isfinite(r.yaw_rate_rad_s),
+          "BatchCascadedPid::set_reference: lane ", lane,
+          ": expected finite position, velocity, yaw and yaw rate");
+  const auto n = static_cast<std::size_t>(stride_), l = static_cast<std::size_t>(lane);
+  for (int k = 0; k < 3; ++k) {
+    reference_[static_cast<std::size_t>(k) * n + l] = static_cast<T>(r.position_m[k]);
+    reference_[static_cast<std::size_t>(3 + k) * n + l] = static_cast<T>(r.velocity_m_s[k]);
+  }
+  reference_[6 * n + l] = static_cast<T>(r.yaw_rad);
+  reference_[7 * n + l] = static_cast<T>(r.yaw_rate_rad_s);
+}
+
+template <class T>
+void BatchCascadedPid<T>::reset_integral(int lane) {
+  require(lane >= 0 && lane < num_vehicles_, "BatchCascadedPid::reset_integral: lane ", lane,
+          " is out of range (", num_vehicles_, " vehicles)");
+  for (int k = 0; k < 4; ++k)
+    integral_[static_cast<std::size_t>(k) * static_cast<std::size_t>(stride_) +
+              static_cast<std::size_t>(lane)] = T(0);
+}
+
+template <class T>
+void BatchCascadedPid<T>::references(int pack, const Mask& running, const StateVectorT<Lanes>& x,
+                                     const StateVectorT<Lanes>* x_dot,
+                                     std::array<Lanes, kMaxRotors>& reference, Mask& failed) {
+  using P = Lanes;
+  using namespace state_index;
+  const auto n = static_cast<std::size_t>(stride_);
+  const std::size_t base = static_cast<std::size_t>(pack) * kLanes;
+  const auto at = [&](AlignedArray<T>& a, int k) {
+    return &a[static_cast<std::size_t>(k) * n + base];
+  };
+  PidLawInput<P> in;
+  for (int k = 0; k < 3; ++k) {
+    in.position_m[k] = x[kPosition + k];
+    in.velocity_m_s[k] = x[kVelocity + k];
+    in.angular_velocity_B[k] = x[kAngularVelocity + k];
+    in.angular_acceleration_B[k] = x_dot != nullptr ? (*x_dot)[kAngularVelocity + k] : P(T(0));
+    in.position_ref_m[k] = P(at(reference_, k), stdx::vector_aligned);
+    in.velocity_ref_m_s[k] = P(at(reference_, 3 + k), stdx::vector_aligned);
+  }
+  for (int k = 0; k < 4; ++k) in.quaternion[k] = x[kQuaternion + k];
+  in.yaw_ref_rad = P(at(reference_, 6), stdx::vector_aligned);
+  in.yaw_rate_ref_rad_s = P(at(reference_, 7), stdx::vector_aligned);
+  Vector4<P> integral;
+  for (int k = 0; k < 4; ++k) integral[k] = P(at(integral_, k), stdx::vector_aligned);
+  const Vector4<P> before = integral;
+  const Vector4<P> u = cascaded_pid_law<P>(law_, in, dt_s_, integral);
+  Mask ok = running;
+  for (int k = 0; k < 4; ++k) ok = ok && stdx::abs(u[k]) <= P(std::numeric_limits<T>::max());
+  failed = running && !ok;
+  // Only lanes that step keep the advanced integral (ClosedLoop calls the controller once per
+  // step of a running simulator).
+  for (int k = 0; k < 4; ++k) {
+    P kept = before[k];
+    stdx::where(ok, kept) = integral[k];
+    kept.copy_to(at(integral_, k), stdx::vector_aligned);
+  }
+  const ThrustFirstAllocation<P> a = allocate_thrust_first<P>(*model_, u);
+  for (int i = 0; i < model_->num_rotors(); ++i)
+    stdx::where(ok, reference[static_cast<std::size_t>(i)]) =
+        a.speeds_rad_s[static_cast<std::size_t>(i)];
+  for (int l = 0; l < kLanes; ++l)
+    if (ok[l]) saturated_[base + l] = a.saturated[l] ? 1 : 0;
+}
+
+template class BatchCascadedPid<double>;
+template class BatchCascadedPid<float>;
+
+}  // namespace dronetwin
