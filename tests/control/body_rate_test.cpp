@@ -33,7 +33,8 @@ TEST(BodyRateController, EachRateFollowsItsCommandAsAFirstOrderLag) {
     Vec3 cmd = Vec3::Zero();
     cmd[axis] = 0.5;  // rad/s: small enough that no rotor saturates
     rates.set_command(model->mass_kg() * 9.81, cmd);
-    ClosedLoop loop(sim, rates, SetpointReference(Vec3::Zero()), 1000.0);
+    const SetpointReference unused(Vec3::Zero());  // the loop's reference; the rates ignore it
+    ClosedLoop loop(sim, rates, unused, 1000.0);
     const double tau_s = 1.0 / gains.rate_p[axis];
     ASSERT_TRUE(loop.run(tau_s).ok());
     const double at_tau = sim.state()[kAngularVelocity + axis] / cmd[axis];
@@ -58,7 +59,8 @@ TEST(BodyRateController, HoverThrustAndZeroRatesHold) {
   sim.reset(Simulator::hover_state(Vec3(0, 0, 1)), model->hover_speeds_rad_s());
   BodyRateController rates(model, BodyRateGains{});
   rates.set_command(model->mass_kg() * 9.81, Vec3::Zero());
-  ClosedLoop loop(sim, rates, SetpointReference(Vec3::Zero()), 1000.0);
+  const SetpointReference unused(Vec3::Zero());
+  ClosedLoop loop(sim, rates, unused, 1000.0);
   ASSERT_TRUE(loop.run(2.0).ok());
   EXPECT_NEAR(sim.state()[2], 1.0, 1e-6);
   EXPECT_LT(sim.state().segment<3>(kAngularVelocity).norm(), 1e-9);

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <type_traits>
 #include <vector>
 
 #include "dronetwin/control/closed_loop.hpp"
@@ -32,6 +33,12 @@ class Recorder : public ControllerBase {
     return GeneralizedForce(model().mass_kg() * 9.81, 0, 0, 0);
   }
 };
+
+// A temporary reference would dangle once the constructor returns: it does not compile.
+static_assert(
+    !std::is_constructible_v<ClosedLoop, Simulator&, ControllerBase&, SetpointReference, double>);
+static_assert(std::is_constructible_v<ClosedLoop, Simulator&, ControllerBase&,
+                                      const SetpointReference&, double>);
 
 TEST(ClosedLoop, RunsTheControllerAtItsRateWithAZeroOrderHold) {
   const auto model = test::load_model("qdrone2");

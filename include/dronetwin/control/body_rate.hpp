@@ -10,7 +10,8 @@
 //
 //   BodyRateController rates(model, BodyRateGains{});
 //   rates.set_command(model->mass_kg() * 9.81, Vec3(0, 0, 1.0));   // hover thrust, yaw at 1 rad/s
-//   ClosedLoop loop(sim, rates, SetpointReference(Vec3::Zero()), 1000.0);   // reference unused
+//   const SetpointReference unused(Vec3::Zero());                    // the loop needs one
+//   ClosedLoop loop(sim, rates, unused, 1000.0);
 //
 // The law is written once for any lane scalar (body_rate_law), the batched controller
 // (batch/batch_body_rate.hpp) instantiates it on a pack.

@@ -67,6 +67,10 @@ class ClosedLoop {
   /// count. `sim`, `controller` and `reference` must outlive the loop.
   ClosedLoop(Simulator& sim, ControllerBase& controller, const Reference& reference,
              double control_rate_hz);
+  /// A temporary reference would dangle as soon as the constructor returns: refused at compile
+  /// time (found by AddressSanitizer in a test that passed SetpointReference(...) inline).
+  ClosedLoop(Simulator& sim, ControllerBase& controller, const Reference&& reference,
+             double control_rate_hz) = delete;
 
   /// Runs the controller and sets the simulator's rotor speed reference if the current step count
   /// is a control instant (a multiple of steps_per_control()) and the controller has not yet run
