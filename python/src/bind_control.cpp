@@ -529,7 +529,9 @@ void bind_control(py::module_& m) {
           [](BodyRateController& c, double thrust_N, py::handle rates) {
             c.set_command(thrust_N, to_fixed<3>(rates, "BodyRateController.set_command: rates"));
           },
-          py::arg("thrust_N"), py::arg("rates_rad_s"))
+          py::arg("thrust_N"), py::arg("rates_rad_s"),
+          "The CTBR command: collective thrust (N, >= 0) and body rates (rad/s); held until the "
+          "next call.")
       .def_property_readonly("thrust_command_N", &BodyRateController::thrust_command_N)
       .def_property_readonly("rate_command_rad_s",
                              [](const BodyRateController& c) { return c.rate_command_rad_s(); });

@@ -191,7 +191,11 @@ def test_generalized_forces_for_every_lane_flag_saturation(qdrone2):
 
 def test_batched_body_rates_equal_the_scalar_controller_in_a_closed_loop(qdrone2):
     n = 4
-    batch = dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=n)
+    # Without the aerodynamic moments the rate loop is the first-order law w' = K (w_cmd - w):
+    # after 0.5 s (10 time constants in roll and pitch) the rates sit on their commands.
+    cfg = dt.SimConfig()
+    cfg.disturbances = dt.DisturbanceSwitches.none()
+    batch = dt.BatchSimulator(qdrone2, cfg, num_vehicles=n)
     rates = dt.BatchBodyRateController(qdrone2, dt.BodyRateGains(), n)
     hover = qdrone2.hover_speeds_rad_s()
     batch.reset(None, dt.Simulator.hover_state([0, 0, 3]), hover)
@@ -199,14 +203,13 @@ def test_batched_body_rates_equal_the_scalar_controller_in_a_closed_loop(qdrone2
     commands = np.array([[thrust, 0.5 * k, -0.2 * k, 0.3] for k in range(n)])
     rates.command[:] = commands
     assert batch.step(500, rates) == 0
-    sim = dt.Simulator(qdrone2, dt.SimConfig())
+    sim = dt.Simulator(qdrone2, cfg)
     sim.reset(dt.Simulator.hover_state([0, 0, 3]), hover)
     scalar = dt.BodyRateController(qdrone2)
     scalar.set_command(commands[2, 0], commands[2, 1:])
     dt.ClosedLoop(sim, scalar, dt.SetpointReference([0, 0, 0]), 1000.0).run(0.5)
     np.testing.assert_array_equal(batch.state[2], sim.state)
-    # Each lane turns at (nearly) its commanded rates after 10 time constants of roll and pitch.
-    np.testing.assert_allclose(batch.state[:, 10:12], commands[:, 1:3], atol=0.03)
+    np.testing.assert_allclose(batch.state[:, 10:12], commands[:, 1:3], atol=1e-3)
     rates.command[1, 0] = np.nan
     assert batch.step(1, rates) == 1
     assert batch.status[1] == int(dt.StepStatus.CONTROLLER_FAILED)
