@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "dronetwin/config/model_loader.hpp"
+#include "dronetwin/control/reference.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
@@ -108,5 +109,18 @@ inline std::string bad_file_case_name(const ::testing::TestParamInfo<BadFileCase
     if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
   return name;
 }
+
+/// A reference that is one point for all time (position, velocity, acceleration, yaw), for
+/// closed loops compared against the batched controllers.
+class FixedPoint final : public Reference {
+ public:
+  explicit FixedPoint(const ReferencePoint& p) : p_(p) {}
+  ReferencePoint at(double) const override { return p_; }
+  std::unique_ptr<Reference> clone() const override { return std::make_unique<FixedPoint>(p_); }
+  std::string describe() const override { return "fixed point"; }
+
+ private:
+  ReferencePoint p_;
+};
 
 }  // namespace dronetwin::test

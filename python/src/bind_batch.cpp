@@ -22,15 +22,22 @@ namespace dronetwin::python {
 
 namespace {
 
+/// (rows, columns) view of structure-of-arrays memory: element k of lane l at data[k * stride + l].
 template <class T>
-py::array_t<T> lane_view(BatchSimulator<T>& b, T* data, py::ssize_t columns, py::handle owner,
-                         bool writable) {
+py::array_t<T> soa_view(T* data, int rows, py::ssize_t columns, int stride, py::handle owner,
+                        bool writable) {
   const auto item = static_cast<py::ssize_t>(sizeof(T));
-  py::array_t<T> a({static_cast<py::ssize_t>(b.size()), columns},
-                   {item, static_cast<py::ssize_t>(b.stride()) * item}, data, owner);
+  py::array_t<T> a({static_cast<py::ssize_t>(rows), columns},
+                   {item, static_cast<py::ssize_t>(stride) * item}, data, owner);
   if (!writable)
     py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
   return a;
+}
+
+template <class T>
+py::array_t<T> lane_view(BatchSimulator<T>& b, T* data, py::ssize_t columns, py::handle owner,
+                         bool writable) {
+  return soa_view<T>(data, b.size(), columns, b.stride(), owner, writable);
 }
 
 ModelParameter parameter_named(const std::string& name) {
@@ -366,10 +373,8 @@ void bind_se3(py::module_& m, const char* base_name, const char* name, const cha
           "reference",
           [](py::object self) {
             C& c = self.cast<C&>();
-            const auto item = static_cast<py::ssize_t>(sizeof(T));
-            return py::array_t<T>(
-                {static_cast<py::ssize_t>(c.size()), static_cast<py::ssize_t>(C::kReferenceSize)},
-                {item, static_cast<py::ssize_t>(c.stride()) * item}, c.reference_data(), self);
+            return soa_view<T>(c.reference_data(), c.size(), C::kReferenceSize, c.stride(), self,
+                               true);
           },
           "(N, 11) writable view: [x, y, z, vx, vy, vz, ax, ay, az, cos(yaw), sin(yaw)] per lane.")
       .def(
@@ -418,10 +423,7 @@ void bind_body_rate(py::module_& m, const char* name, const char* dtype) {
           "command",
           [](py::object self) {
             C& c = self.cast<C&>();
-            const auto item = static_cast<py::ssize_t>(sizeof(T));
-            return py::array_t<T>({static_cast<py::ssize_t>(c.size()), py::ssize_t{4}},
-                                  {item, static_cast<py::ssize_t>(c.stride()) * item},
-                                  c.command_data(), self);
+            return soa_view<T>(c.command_data(), c.size(), 4, c.stride(), self, true);
           },
           "(N, 4) writable view: [T (N), wx, wy, wz (rad/s)] per lane; a non-finite entry stops "
           "its lane with CONTROLLER_FAILED at the next step.")
@@ -462,22 +464,19 @@ void bind_pid(py::module_& m, const char* name, const char* dtype) {
           "reference",
           [](py::object self) {
             C& c = self.cast<C&>();
-            const auto item = static_cast<py::ssize_t>(sizeof(T));
-            return py::array_t<T>(
-                {static_cast<py::ssize_t>(c.size()), static_cast<py::ssize_t>(C::kReferenceSize)},
-                {item, static_cast<py::ssize_t>(c.stride()) * item}, c.reference_data(), self);
+            return soa_view<T>(c.reference_data(), c.size(), C::kReferenceSize, c.stride(), self,
+                               true);
           },
           "(N, 8) writable view: [x, y, z, vx, vy, vz, yaw, yaw_rate] per lane.")
-      .def(
+      .def_property_readonly(
           "integral",
-          [](const C& c) {
-            py::array_t<T> a({static_cast<py::ssize_t>(c.size()), py::ssize_t{4}});
-            for (int l = 0; l < c.size(); ++l)
-              for (int k = 0; k < 4; ++k)
-                a.mutable_at(l, k) = c.integral_data()[k * c.stride() + l];
-            return a;
+          [](py::object self) {
+            const C& c = self.cast<const C&>();
+            // Read-only view; the const is the controller's (its memory, reset_integral clears).
+            return soa_view<T>(const_cast<T*>(c.integral_data()), c.size(), 4, c.stride(), self,
+                               false);
           },
-          "(N, 4): each lane's integral state [x, y, z, psi] (a copy).")
+          "(N, 4) read-only view: each lane's integral state [x, y, z, psi].")
       .def("reset_integral", &C::reset_integral, py::arg("lane"),
            "Clears one lane's integral (a new episode).");
 }

@@ -1,9 +1,7 @@
 #include "dronetwin/batch/batch_body_rate.hpp"
 
-#include <limits>
-
+#include "dronetwin/batch/lane_allocation.hpp"
 #include "dronetwin/core/error.hpp"
-#include "dronetwin/model/allocation.hpp"
 
 namespace dronetwin {
 
@@ -13,10 +11,8 @@ BatchBodyRateController<T>::BatchBodyRateController(std::shared_ptr<const Vehicl
     : model_(std::move(model)), gains_(gains) {
   require(model_ != nullptr, "BatchBodyRateController: model is null");
   BodyRateController check(model_, gains_);  // the scalar controller's checks of the gains
-  require(num_vehicles >= 1, "BatchBodyRateController: num_vehicles: expected >= 1, got ",
-          num_vehicles);
   num_vehicles_ = num_vehicles;
-  stride_ = (num_vehicles + kLanes - 1) / kLanes * kLanes;
+  stride_ = batch_stride<T>(num_vehicles, "BatchBodyRateController");
   command_ = AlignedArray<T>(static_cast<std::size_t>(4 * stride_));
   saturated_.assign(static_cast<std::size_t>(stride_), 0);
 }
@@ -47,22 +43,16 @@ void BatchBodyRateController<T>::references(int pack, const Mask& running,
   Vector4<P> cmd;
   for (int k = 0; k < 4; ++k)
     cmd[k] = P(&command_[static_cast<std::size_t>(k) * n + base], stdx::vector_aligned);
-  Mask ok = running;
-  for (int k = 0; k < 4; ++k) ok = ok && stdx::abs(cmd[k]) <= P(std::numeric_limits<T>::max());
-  failed = running && !ok;
   Vector3<P> w_B, rates;
   for (int k = 0; k < 3; ++k) {
     w_B[k] = x[state_index::kAngularVelocity + k];
     rates[k] = cmd[1 + k];
   }
   const Vector3<P> tau = body_rate_law<P>(gains_.rate_p, model_->inertia_kgm2(), w_B, rates);
+  // Thrust below 0 is allocated as 0. A non-finite command gives a non-finite u (max keeps a
+  // NaN), which allocate_lanes refuses: the lane stops.
   const Vector4<P> u(scalar::max(cmd[0], P(T(0))), tau[0], tau[1], tau[2]);
-  const ThrustFirstAllocation<P> a = allocate_thrust_first<P>(*model_, u);
-  for (int i = 0; i < model_->num_rotors(); ++i)
-    stdx::where(ok, reference[static_cast<std::size_t>(i)]) =
-        a.speeds_rad_s[static_cast<std::size_t>(i)];
-  for (int l = 0; l < kLanes; ++l)
-    if (ok[l]) saturated_[base + l] = a.saturated[l] ? 1 : 0;
+  allocate_lanes(*model_, u, running, reference, failed, &saturated_[base]);
 }
 
 template class BatchBodyRateController<double>;

@@ -1,10 +1,9 @@
 #include "dronetwin/batch/batch_pid.hpp"
 
 #include <cmath>
-#include <limits>
 
+#include "dronetwin/batch/lane_allocation.hpp"
 #include "dronetwin/core/error.hpp"
-#include "dronetwin/model/allocation.hpp"
 
 namespace dronetwin {
 
@@ -13,12 +12,11 @@ BatchCascadedPid<T>::BatchCascadedPid(std::shared_ptr<const VehicleModel> model,
                                       const PidGains& gains, const PidOptions& options,
                                       double control_period_s, int num_vehicles)
     : model_(std::move(model)),
-      scalar_(model_, gains, options, control_period_s),
-      law_(scalar_.law()),
+      // The scalar controller checks the gains, options and period and builds the constants.
+      law_(CascadedPid(model_, gains, options, control_period_s).law()),
       dt_s_(control_period_s) {
-  require(num_vehicles >= 1, "BatchCascadedPid: num_vehicles: expected >= 1, got ", num_vehicles);
   num_vehicles_ = num_vehicles;
-  stride_ = (num_vehicles + kLanes - 1) / kLanes * kLanes;
+  stride_ = batch_stride<T>(num_vehicles, "BatchCascadedPid");
   const auto n = static_cast<std::size_t>(stride_);
   reference_ = AlignedArray<T>(n * kReferenceSize);
   integral_ = AlignedArray<T>(n * 4);
@@ -78,22 +76,15 @@ void BatchCascadedPid<T>::references(int pack, const Mask& running, const StateV
   for (int k = 0; k < 4; ++k) integral[k] = P(at(integral_, k), stdx::vector_aligned);
   const Vector4<P> before = integral;
   const Vector4<P> u = cascaded_pid_law<P>(law_, in, dt_s_, integral);
-  Mask ok = running;
-  for (int k = 0; k < 4; ++k) ok = ok && stdx::abs(u[k]) <= P(std::numeric_limits<T>::max());
-  failed = running && !ok;
+  allocate_lanes(*model_, u, running, reference, failed, &saturated_[base]);
   // Only lanes that step keep the advanced integral (ClosedLoop calls the controller once per
   // step of a running simulator).
+  const Mask kept = running && !failed;
   for (int k = 0; k < 4; ++k) {
-    P kept = before[k];
-    stdx::where(ok, kept) = integral[k];
-    kept.copy_to(at(integral_, k), stdx::vector_aligned);
+    P value = before[k];
+    stdx::where(kept, value) = integral[k];
+    value.copy_to(at(integral_, k), stdx::vector_aligned);
   }
-  const ThrustFirstAllocation<P> a = allocate_thrust_first<P>(*model_, u);
-  for (int i = 0; i < model_->num_rotors(); ++i)
-    stdx::where(ok, reference[static_cast<std::size_t>(i)]) =
-        a.speeds_rad_s[static_cast<std::size_t>(i)];
-  for (int l = 0; l < kLanes; ++l)
-    if (ok[l]) saturated_[base + l] = a.saturated[l] ? 1 : 0;
 }
 
 template class BatchCascadedPid<double>;

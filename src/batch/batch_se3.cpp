@@ -1,10 +1,9 @@
 #include "dronetwin/batch/batch_se3.hpp"
 
 #include <cmath>
-#include <limits>
 
+#include "dronetwin/batch/lane_allocation.hpp"
 #include "dronetwin/core/error.hpp"
-#include "dronetwin/model/allocation.hpp"
 
 namespace dronetwin {
 
@@ -12,10 +11,11 @@ template <class T>
 BatchSe3Controller<T>::BatchSe3Controller(std::shared_ptr<const VehicleModel> model,
                                           const Se3Gains& gains, const Se3Options& options,
                                           int num_vehicles)
-    : model_(std::move(model)), scalar_(model_, gains, options), law_(scalar_.law()) {
-  require(num_vehicles >= 1, "BatchSe3Controller: num_vehicles: expected >= 1, got ", num_vehicles);
+    : model_(std::move(model)),
+      // The scalar controller checks the gains and options and builds the law's constants.
+      law_(Se3Controller(model_, gains, options).law()) {
   num_vehicles_ = num_vehicles;
-  stride_ = (num_vehicles + kLanes - 1) / kLanes * kLanes;
+  stride_ = batch_stride<T>(num_vehicles, "BatchSe3Controller");
   const auto n = static_cast<std::size_t>(stride_);
   reference_ = AlignedArray<T>(n * kReferenceSize);
   for (std::size_t l = 0; l < n; ++l) reference_[9 * n + l] = T(1);  // b1d = [1, 0]: yaw 0
@@ -70,21 +70,9 @@ void BatchSe3Controller<T>::references(int pack, const Mask& running, const Stat
   for (int k = 0; k < 4; ++k) in.quaternion[k] = x[kQuaternion + k];
   in.cos_yaw = ref(9);
   in.sin_yaw = ref(10);
-  const Vector4<P> u = se3_law<P>(law_, in);
-  // ControllerBase refuses a non-finite output; here the lane stops instead.
-  Mask ok = running;
-  for (int k = 0; k < 4; ++k) ok = ok && stdx::abs(u[k]) <= P(std::numeric_limits<T>::max());
-  failed = running && !ok;
-  const ThrustFirstAllocation<P> a = allocate_thrust_first<P>(*model_, u);
-  for (int i = 0; i < model_->num_rotors(); ++i)
-    stdx::where(ok, reference[static_cast<std::size_t>(i)]) =
-        a.speeds_rad_s[static_cast<std::size_t>(i)];
-  const auto saturated = a.saturated && ok;
-  for (int l = 0; l < kLanes; ++l) {
-    if (!ok[l]) continue;
-    saturated_[base + l] = saturated[l] ? 1 : 0;
-    saturated_count_[base + l] += saturated[l] ? 1 : 0;
-  }
+  allocate_lanes(*model_, se3_law<P>(law_, in), running, reference, failed, &saturated_[base]);
+  for (int l = 0; l < kLanes; ++l)
+    if (running[l] && !failed[l]) saturated_count_[base + l] += saturated_[base + l];
 }
 
 template class BatchSe3Controller<double>;

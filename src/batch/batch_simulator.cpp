@@ -5,6 +5,7 @@
 #include <limits>
 #include <new>
 
+#include "dronetwin/batch/lane_allocation.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/dynamics/motor.hpp"
 #include "dronetwin/model/allocation.hpp"
@@ -40,9 +41,16 @@ AlignedArray<T>::~AlignedArray() {
 
 // ---- construction and per-lane access --------------------------------------------------------
 
-namespace {
+template <class T>
+int batch_stride(int num_vehicles, const char* what) {
+  require(num_vehicles >= 1 && num_vehicles <= kMaxBatchVehicles, what,
+          ": num_vehicles: expected 1 to ", kMaxBatchVehicles, ", got ", num_vehicles);
+  return (num_vehicles + kBatchLanes<T> - 1) / kBatchLanes<T> * kBatchLanes<T>;
+}
+template int batch_stride<double>(int, const char*);
+template int batch_stride<float>(int, const char*);
 
-constexpr int kMaxVehicles = 1 << 24;
+namespace {
 
 /// Pack P from lanes base .. base + W of an array (the arrays are padded to whole packs).
 template <class P, class T>
@@ -52,13 +60,6 @@ DRONETWIN_HOT_INLINE P load(const T* a) {
 template <class P, class T>
 DRONETWIN_HOT_INLINE void store(const P& p, T* a) {
   p.copy_to(a, stdx::vector_aligned);
-}
-
-/// True in lanes where every value is finite.
-template <class P>
-DRONETWIN_HOT_INLINE auto finite(const P& x) {
-  using T = typename P::value_type;
-  return stdx::abs(x) <= P(std::numeric_limits<T>::max());
 }
 
 /// The parameters of W lanes, one value per lane, as one model of packs. Geometry, spins and
@@ -119,12 +120,10 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
     : model_(std::move(model)), config_(std::move(config)) {
   require(model_ != nullptr, "BatchSimulator: model is null");
   validate(config_);
-  require(num_vehicles >= 1 && num_vehicles <= kMaxVehicles,
-          "BatchSimulator: num_vehicles: expected 1 to ", kMaxVehicles, ", got ", num_vehicles);
+  stride_ = batch_stride<T>(num_vehicles, "BatchSimulator");
   terms_ = ForceTerms::of(config_.disturbances);
   num_vehicles_ = num_vehicles;
-  num_packs_ = (num_vehicles + kLanes - 1) / kLanes;
-  stride_ = num_packs_ * kLanes;
+  num_packs_ = stride_ / kLanes;
   pool_ = std::make_unique<ThreadPool>(num_threads);
 
   const auto n = static_cast<std::size_t>(stride_);
@@ -431,17 +430,16 @@ void BatchSimulator<T>::set_generalized_forces(const T* u) {
     // Unaligned loads: u is the caller's array.
     Vector4<P> request;
     for (int k = 0; k < 4; ++k) request[k] = P(u + k * stride + base, stdx::element_aligned);
-    auto usable = stdx::abs(request[0]) <= P(std::numeric_limits<T>::max());
-    for (int k = 1; k < 4; ++k)
-      usable = usable && stdx::abs(request[k]) <= P(std::numeric_limits<T>::max());
-    const ThrustFirstAllocation<P> a = allocate_thrust_first<P>(*model_, request);
-    for (int i = 0; i < nr; ++i) {
-      P ref(&rotor_reference_[i * stride + base], stdx::vector_aligned);
-      stdx::where(usable, ref) = a.speeds_rad_s[static_cast<std::size_t>(i)];
-      ref.copy_to(&rotor_reference_[i * stride + base], stdx::vector_aligned);
-    }
+    std::array<P, kMaxRotors> reference{};
+    for (int i = 0; i < nr; ++i)
+      reference[static_cast<std::size_t>(i)] = load<P>(&rotor_reference_[i * stride + base]);
+    typename P::mask_type not_finite;
+    allocate_lanes(*model_, request, typename P::mask_type(true), reference, not_finite,
+                   &saturated_[base]);
+    for (int i = 0; i < nr; ++i)
+      store(reference[static_cast<std::size_t>(i)], &rotor_reference_[i * stride + base]);
     for (int l = 0; l < kLanes; ++l)
-      saturated_[base + l] = !usable[l] ? 2 : (a.saturated[l] ? 1 : 0);
+      if (not_finite[l]) saturated_[base + l] = 2;
   }
 }
 
@@ -503,15 +501,15 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
   });
   {
     M state_ok = M(true), input_ok = M(true);
-    for (int k = 0; k < kStateSize; ++k) state_ok = state_ok && finite(x[k]);
+    for (int k = 0; k < kStateSize; ++k) state_ok = state_ok && finite_lanes(x[k]);
     const P q2 = x[kQuaternion] * x[kQuaternion] + x[kQuaternion + 1] * x[kQuaternion + 1] +
                  x[kQuaternion + 2] * x[kQuaternion + 2] + x[kQuaternion + 3] * x[kQuaternion + 3];
     state_ok = state_ok && q2 >= P(T(0.25)) && q2 <= P(T(4));
     for (int i = 0; i < nr; ++i) {
-      input_ok = input_ok && finite(reference[static_cast<std::size_t>(i)]) &&
-                 finite(speed[static_cast<std::size_t>(i)]);
+      input_ok = input_ok && finite_lanes(reference[static_cast<std::size_t>(i)]) &&
+                 finite_lanes(speed[static_cast<std::size_t>(i)]);
     }
-    for (int k = 0; k < 3; ++k) input_ok = input_ok && finite(wind[k]);
+    for (int k = 0; k < 3; ++k) input_ok = input_ok && finite_lanes(wind[k]);
     const M refused = running && !(state_ok && input_ok);
     if (stdx::any_of(refused)) {
       for (int l = 0; l < kLanes; ++l) {

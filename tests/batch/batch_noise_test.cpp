@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <vector>
 
 #include "dronetwin/batch/batch_simulator.hpp"
 #include "dronetwin/noise/counter_normal.hpp"
@@ -168,6 +169,70 @@ TEST(BatchNoise, SeedsAndResetsActPerLane) {
   quiet.step(10);
   EXPECT_EQ(quiet.measured_state(1), quiet.state(1));
   EXPECT_EQ(quiet.measured_state_data(), quiet.state_data());
+}
+
+/// An inner loop that keeps the rotor references and records what it is shown of lane 0.
+class Recorder final : public BatchInnerLoop<double> {
+ public:
+  explicit Recorder(int n) : n_(n) {}
+  int size() const override { return n_; }
+  int num_rotors() const override { return 4; }
+  bool uses_state_derivative() const override { return true; }
+  void references(int pack, const Mask&, const StateVectorT<Lanes>& x,
+                  const StateVectorT<Lanes>* x_dot, std::array<Lanes, kMaxRotors>&,
+                  Mask& failed) override {
+    failed = Mask(false);
+    if (pack != 0) return;
+    StateVector state, derivative;
+    for (int k = 0; k < kStateSize; ++k) {
+      state[k] = x[k][0];
+      derivative[k] = (*x_dot)[k][0];
+    }
+    measured.push_back(state);
+    measured_derivative.push_back(derivative);
+  }
+  std::vector<StateVector> measured, measured_derivative;
+
+ private:
+  int n_;
+};
+
+// An inner loop that reads the state derivative sees f(x) at the current rotor speeds (as
+// Simulator::state_derivative) plus the derivative's own OU process: Eq. 3.5 with the lane's draws
+// 16-28 of each step, checked against the dense matrix form.
+TEST(BatchNoise, AnInnerLoopSeesTheDerivativeWithItsOwnOuProcess) {
+  const auto model = test::load_model("qdrone2");
+  const SimConfig cfg = noisy_config(21);
+  BatchSimulator<double> b(model, cfg, 3);
+  hover_all(b);
+  RotorVector asym = model->hover_speeds_rad_s();
+  asym[0] *= 1.01;  // the vehicle accelerates and turns: the derivative is not trivial
+  b.set_rotor_speed_reference(0, asym);
+  Recorder recorder(3);
+  const Mat13 theta = ou_block_matrix(cfg.noise.parameters.theta);
+  const Mat13 sigma = ou_block_matrix(cfg.noise.parameters.sigma);
+  const std::uint64_t key = counter_stream_key(21, 0);
+  StateVector y = StateVector::Zero();
+  SimConfig quiet = cfg;
+  quiet.noise.enabled = false;
+  Simulator sim(model, quiet);
+  double worst = 0.0;
+  for (int k = 0; k < 200; ++k) {
+    sim.reset(b.state(0), b.rotor_speeds(0));
+    const StateVector f = sim.state_derivative();
+    const StateVector shown = b.measured_state(0);
+    ASSERT_EQ(b.step(1, recorder), 0);
+    // The controller's measured state is state + state noise, as measured_state_data() holds it.
+    ASSERT_EQ(recorder.measured.back(), shown) << "step " << k;
+    worst = std::max(worst, (recorder.measured_derivative.back() - (f + y)).cwiseAbs().maxCoeff());
+    StateVector xi;
+    for (int j = 0; j < kStateSize; ++j)
+      xi[j] = counter_normal(key, static_cast<std::uint64_t>(k) * kCounterDrawsPerStep + 16 +
+                                      static_cast<std::uint64_t>(j));
+    y = y - theta * y + std::sqrt(cfg.dt_s) * sigma * xi;
+  }
+  EXPECT_LT(worst, 1e-12);
+  EXPECT_GT(y.norm(), 1e-4) << "the derivative noise is not trivially zero";
 }
 
 TEST(BatchNoise, AFailedLaneKeepsItsLastNoise) {

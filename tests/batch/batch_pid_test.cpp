@@ -18,18 +18,6 @@ namespace {
 
 using state_index::kPosition;
 
-/// A reference that is one point for all time.
-class FixedPoint final : public Reference {
- public:
-  explicit FixedPoint(const ReferencePoint& p) : p_(p) {}
-  ReferencePoint at(double) const override { return p_; }
-  std::unique_ptr<Reference> clone() const override { return std::make_unique<FixedPoint>(p_); }
-  std::string describe() const override { return "fixed point"; }
-
- private:
-  ReferencePoint p_;
-};
-
 /// config/controllers/pid_tuned.yaml.
 std::pair<PidGains, PidOptions> tuned() {
   PidGains g;
@@ -87,7 +75,7 @@ TEST(BatchPid, EveryLaneEqualsCascadedPidInAClosedLoop) {
       Simulator sim(std::make_shared<const VehicleModel>(spec), cfg);
       sim.reset(starts[static_cast<std::size_t>(l)], model->hover_speeds_rad_s());
       CascadedPid scalar(model, gains, options, cfg.dt_s);
-      const FixedPoint reference(refs[static_cast<std::size_t>(l)]);
+      const test::FixedPoint reference(refs[static_cast<std::size_t>(l)]);
       ClosedLoop loop(sim, scalar, reference, 1.0 / cfg.dt_s);
       // ClosedLoop::run updates once more after the last step; fly the same count of updates.
       for (int k = 0; k < kSteps; ++k) ASSERT_TRUE(loop.step().ok());
@@ -135,6 +123,33 @@ TEST(BatchPid, TheTunedPidSettlesInFloatAndResetsPerLane) {
   EXPECT_NE(test::error_of([&] {
               BatchCascadedPid<float> bad(model, gains, options, 0.0, 3);
             }).find("control period"),
+            std::string::npos);
+}
+
+TEST(BatchPid, BadReferencesLanesAndSizesAreNamed) {
+  const auto model = test::load_model("qdrone2");
+  BatchCascadedPid<double> pid(model, PidGains::thesis_simulation(), PidOptions{}, 1e-3, 4);
+  ReferencePoint bad;
+  bad.yaw_rate_rad_s = std::nan("");
+  const std::string e = test::error_of([&] { pid.set_reference(1, bad); });
+  EXPECT_NE(e.find("lane 1"), std::string::npos) << e;
+  EXPECT_NE(e.find("yaw rate"), std::string::npos) << e;
+  EXPECT_NE(test::error_of([&] { pid.set_reference(4, ReferencePoint{}); }).find("lane 4 is out"),
+            std::string::npos);
+  EXPECT_NE(test::error_of([&] { pid.reset_integral(-1); }).find("lane -1 is out"),
+            std::string::npos);
+  EXPECT_NE(test::error_of([&] {
+              BatchCascadedPid<double> none(model, PidGains::thesis_simulation(), PidOptions{},
+                                            1e-3, 0);
+            }).find("BatchCascadedPid: num_vehicles: expected 1 to 16777216, got 0"),
+            std::string::npos);
+  // A controller built for another airframe is refused by the batch, naming both rotor counts.
+  const auto hexa = test::load_model("hexarotor");
+  BatchCascadedPid<double> six(hexa, PidGains::thesis_simulation(), PidOptions{}, 1e-3, 4);
+  BatchSimulator<double> batch(model, SimConfig{}, 4);
+  const std::string r = test::error_of([&] { batch.step(1, six); });
+  EXPECT_NE(r.find("inner loop is for 6 rotors, the batch's model has 4"), std::string::npos) << r;
+  EXPECT_NE(test::error_of([&] { batch.set_generalized_forces(nullptr); }).find("u is null"),
             std::string::npos);
 }
 

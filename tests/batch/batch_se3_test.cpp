@@ -149,18 +149,6 @@ TEST(BatchSe3, BatchedAllocationEqualsTheScalarOneWithItsSaturationFlags) {
   }
 }
 
-/// A reference that is one point for all time (position, velocity, acceleration, yaw).
-class FixedPoint final : public Reference {
- public:
-  explicit FixedPoint(const ReferencePoint& p) : p_(p) {}
-  ReferencePoint at(double) const override { return p_; }
-  std::unique_ptr<Reference> clone() const override { return std::make_unique<FixedPoint>(p_); }
-  std::string describe() const override { return "fixed point"; }
-
- private:
-  ReferencePoint p_;
-};
-
 // In double, a lane flown by BatchSe3Controller equals a Simulator flown by Se3Controller through
 // ClosedLoop at the physics rate, over 3 s from tilted, moving starts, with per-lane masses.
 TEST(BatchSe3, ALaneFlownByTheBatchedControllerEqualsTheClosedLoop) {
@@ -202,7 +190,7 @@ TEST(BatchSe3, ALaneFlownByTheBatchedControllerEqualsTheClosedLoop) {
     Simulator sim(std::make_shared<const VehicleModel>(spec), cfg);
     sim.reset(starts[static_cast<std::size_t>(l)], model->hover_speeds_rad_s());
     Se3Controller scalar(model, Se3Gains::thesis(), options);
-    const FixedPoint reference(refs[static_cast<std::size_t>(l)]);
+    const test::FixedPoint reference(refs[static_cast<std::size_t>(l)]);
     ClosedLoop loop(sim, scalar, reference, 1.0 / cfg.dt_s);
     const StepResult r = loop.run(kSteps * cfg.dt_s);
     ASSERT_TRUE(r.ok()) << "lane " << l;

@@ -234,6 +234,7 @@ def test_batched_pid_equals_the_scalar_pid_in_a_closed_loop(qdrone2):
     for _ in range(2000):
         loop.step()
     np.testing.assert_array_equal(batch.state[2], sim.state)
-    np.testing.assert_array_equal(pid.integral()[2], scalar.integral)
+    np.testing.assert_array_equal(pid.integral[2], scalar.integral)
+    assert not pid.integral.flags.writeable
     pid.reset_integral(2)
-    np.testing.assert_array_equal(pid.integral()[2], np.zeros(4))
+    np.testing.assert_array_equal(pid.integral[2], np.zeros(4))

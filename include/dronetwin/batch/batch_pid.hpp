@@ -58,7 +58,6 @@ class BatchCascadedPid final : public BatchInnerLoop<T> {
 
  private:
   std::shared_ptr<const VehicleModel> model_;
-  CascadedPid scalar_;  // validates the gains and options, and builds the law's constants
   PidLawConstants law_;
   double dt_s_ = 0.0;
   int num_vehicles_ = 0;

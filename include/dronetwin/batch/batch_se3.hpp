@@ -61,7 +61,6 @@ class BatchSe3Controller final : public BatchInnerLoop<T> {
 
  private:
   std::shared_ptr<const VehicleModel> model_;
-  Se3Controller scalar_;  // validates the gains and options, and builds the law's constants
   Se3LawConstants law_;
   int num_vehicles_ = 0;
   int stride_ = 0;

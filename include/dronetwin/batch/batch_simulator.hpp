@@ -70,6 +70,14 @@ inline constexpr int kBatchLanes = static_cast<int>(stdx::native_simd<T>::size()
                                                         ? stdx::native_simd<T>::size()
                                                         : 32 / sizeof(T));
 
+/// Most vehicles one batch (and one batched controller) holds.
+inline constexpr int kMaxBatchVehicles = 1 << 24;
+
+/// Length of each per-lane array for `num_vehicles` lanes of T: whole packs. Throws
+/// InvalidArgument naming `what` unless 1 <= num_vehicles <= kMaxBatchVehicles.
+template <class T>
+int batch_stride(int num_vehicles, const char* what);
+
 /// Memory for the batch's arrays, aligned for pack loads (64 bytes).
 template <class T>
 class AlignedArray {

@@ -23,6 +23,7 @@
 
 #include "dronetwin/control/controller_base.hpp"
 #include "dronetwin/core/scalar.hpp"
+#include "dronetwin/math/ordered_product.hpp"
 
 namespace dronetwin {
 
@@ -38,17 +39,11 @@ template <class S>
 Vector3<S> body_rate_law(const Vec3& rate_p, const Mat3& J, const Vector3<S>& w_B,
                          const Vector3<S>& rate_cmd) {
   using V = scalar::value_type_t<S>;
-  const auto c = [](double v) { return S(static_cast<V>(v)); };
-  Vector3<S> a, Jw;
-  for (int i = 0; i < 3; ++i) a[i] = c(rate_p[i]) * (rate_cmd[i] - w_B[i]);
-  for (int i = 0; i < 3; ++i)
-    Jw[i] = (c(J(i, 0)) * w_B[0] + c(J(i, 1)) * w_B[1]) + c(J(i, 2)) * w_B[2];
-  const Vector3<S> gyro(w_B[1] * Jw[2] - w_B[2] * Jw[1], w_B[2] * Jw[0] - w_B[0] * Jw[2],
-                        w_B[0] * Jw[1] - w_B[1] * Jw[0]);
-  Vector3<S> tau;
-  for (int i = 0; i < 3; ++i)
-    tau[i] = ((c(J(i, 0)) * a[0] + c(J(i, 1)) * a[1]) + c(J(i, 2)) * a[2]) + gyro[i];
-  return tau;
+  Vector3<S> a;
+  for (int i = 0; i < 3; ++i) a[i] = scalar::from_value<S>(rate_p[i]) * (rate_cmd[i] - w_B[i]);
+  const Vector3<S> Ja = math::ordered_product(J.cast<V>(), a);
+  const Vector3<S> gyro = w_B.cross(math::ordered_product(J.cast<V>(), w_B));
+  return Ja + gyro;
 }
 
 class BodyRateController final : public ControllerBase {

@@ -50,7 +50,7 @@ template <class S>
 Vector4<S> cascaded_pid_law(const PidLawConstants& k, const PidLawInput<S>& in, double dt_s,
                             Vector4<S>& integral) {
   using V = scalar::value_type_t<S>;
-  const auto c = [](double v) { return S(static_cast<V>(v)); };
+  const auto c = [](double v) { return scalar::from_value<S>(v); };
   const S zero = c(0.0), one = c(1.0), two = c(2.0);
 
   // Attitude from the measured quaternion, normalised (notes #30); a zero one is read as level.

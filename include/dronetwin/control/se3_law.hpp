@@ -15,6 +15,7 @@
 
 #include "dronetwin/core/scalar.hpp"
 #include "dronetwin/core/types.hpp"
+#include "dronetwin/math/ordered_product.hpp"
 #include "dronetwin/math/quaternion.hpp"
 
 namespace dronetwin {
@@ -50,12 +51,6 @@ S dot(const Vector3<S>& a, const Vector3<S>& b) {
   return (a[0] * b[0] + a[1] * b[1]) + a[2] * b[2];
 }
 
-template <class S>
-Vector3<S> cross(const Vector3<S>& a, const Vector3<S>& b) {
-  return Vector3<S>(a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                    a[0] * b[1] - a[1] * b[0]);
-}
-
 template <class M, class S>
 Vector3<S> select(const M& mask, const Vector3<S>& a, const Vector3<S>& b) {
   return Vector3<S>(scalar::select(mask, a[0], b[0]), scalar::select(mask, a[1], b[1]),
@@ -69,11 +64,6 @@ Vector3<S> unit_or(const Vector3<S>& v, const S& tiny, const Vector3<S>& otherwi
   return select(n > tiny, Vector3<S>(v[0] / n, v[1] / n, v[2] / n), otherwise);
 }
 
-template <class S>
-S constant(double v) {
-  return S(static_cast<scalar::value_type_t<S>>(v));
-}
-
 }  // namespace se3_law_detail
 
 /// The attitude half (Eq. 3.27-3.28 with w_des = 0): R_des = [b2d x b3d, b2d, b3d] from the unit
@@ -85,30 +75,28 @@ Vector3<S> se3_attitude_law(const Matrix3<S>& R, const Vector3<S>& w_B, const Ve
                             const S& cos_yaw, const S& sin_yaw, const Vec3& attitude_p,
                             const Vec3& attitude_d, const Mat3& J) {
   using namespace se3_law_detail;
-  const S zero(0), one = constant<S>(1.0), small = constant<S>(1e-6);
+  const auto c = [](double v) { return scalar::from_value<S>(v); };
+  const S zero(0), one = c(1.0), small = c(1e-6);
   const Vector3<S> e2(zero, one, zero), e3(zero, zero, one);
   const Vector3<S> b1d(cos_yaw, sin_yaw, zero);
   const Vector3<S> Re1(R(0, 0), R(1, 0), R(2, 0));
   // First usable of b3d x b1d, b3d x R e1, b3d x e3 (else e2).
-  const Vector3<S> third = unit_or(cross(b3d, e3), zero, e2);
-  const Vector3<S> second = unit_or(cross(b3d, Re1), small, third);
-  const Vector3<S> b2d = unit_or(cross(b3d, b1d), small, second);
-  const Vector3<S> b1 = cross(b2d, b3d);
+  const Vector3<S> third = unit_or(Vector3<S>(b3d.cross(e3)), zero, e2);
+  const Vector3<S> second = unit_or(Vector3<S>(b3d.cross(Re1)), small, third);
+  const Vector3<S> b2d = unit_or(Vector3<S>(b3d.cross(b1d)), small, second);
+  const Vector3<S> b1 = b2d.cross(b3d);
   // M1 = R_des^T R; e_R = 1/2 vee(M1 - M1^T) needs its off-diagonal entries only.
   const auto m = [&](const Vector3<S>& des, int j) {
     return (des[0] * R(0, j) + des[1] * R(1, j)) + des[2] * R(2, j);
   };
-  const S half = constant<S>(0.5);
+  const S half = c(0.5);
   const Vector3<S> e_R(half * (m(b3d, 1) - m(b2d, 2)), half * (m(b1, 2) - m(b3d, 0)),
                        half * (m(b2d, 0) - m(b1, 1)));
-  Vector3<S> Jw;
-  for (int i = 0; i < 3; ++i)
-    Jw[i] = (constant<S>(J(i, 0)) * w_B[0] + constant<S>(J(i, 1)) * w_B[1]) +
-            constant<S>(J(i, 2)) * w_B[2];
-  const Vector3<S> gyro = cross(w_B, Jw);
+  using V = scalar::value_type_t<S>;
+  const Vector3<S> gyro = w_B.cross(math::ordered_product(J.cast<V>(), w_B));
   Vector3<S> M;
   for (int i = 0; i < 3; ++i)
-    M[i] = (-constant<S>(attitude_p[i]) * e_R[i] - constant<S>(attitude_d[i]) * w_B[i]) + gyro[i];
+    M[i] = (-c(attitude_p[i]) * e_R[i] - c(attitude_d[i]) * w_B[i]) + gyro[i];
   return M;
 }
 
@@ -117,35 +105,35 @@ Vector3<S> se3_attitude_law(const Matrix3<S>& R, const Vector3<S>& w_B, const Ve
 template <class S>
 Vector4<S> se3_law(const Se3LawConstants& k, const Se3LawInput<S>& in) {
   using namespace se3_law_detail;
-  const S zero(0), one = constant<S>(1.0);
+  const auto c = [](double v) { return scalar::from_value<S>(v); };
+  const S zero(0), one = c(1.0);
   const Vector3<S> e3(zero, zero, one);
   // Measured attitude, normalised (notes #30); a zero quaternion is read as level.
   const Vector4<S>& q = in.quaternion;
   const S qn = scalar::sqrt(((q[0] * q[0] + q[1] * q[1]) + q[2] * q[2]) + q[3] * q[3]);
-  const auto q_ok = qn > constant<S>(1e-12);
+  const auto q_ok = qn > c(1e-12);
   Vector4<S> qu;
   for (int i = 0; i < 4; ++i) qu[i] = scalar::select(q_ok, q[i] / qn, i == 0 ? one : zero);
   const Matrix3<S> R = math::rotation_matrix<S>(qu);
 
   // Desired force, Eq. 3.27-3.28 (+ m g e3, notes #35).
-  const S m = constant<S>(k.mass_kg);
+  const S m = c(k.mass_kg);
   Vector3<S> F;
   for (int i = 0; i < 3; ++i) {
     const S e_p = in.position_ref_m[i] - in.position_m[i];
     const S e_v = in.velocity_ref_m_s[i] - in.velocity_m_s[i];
-    F[i] = (constant<S>(k.position_p[i]) * e_p + constant<S>(k.position_d[i]) * e_v) +
-           m * in.acceleration_ref_m_s2[i];
+    F[i] = (c(k.position_p[i]) * e_p + c(k.position_d[i]) * e_v) + m * in.acceleration_ref_m_s2[i];
   }
-  if (k.gravity_compensation) F[2] = F[2] + constant<S>(k.mass_kg * k.gravity_m_s2);
+  if (k.gravity_compensation) F[2] = F[2] + c(k.mass_kg * k.gravity_m_s2);
 
   // Desired thrust direction b3d; |F| below a micro-newton carries none: keep e3.
-  const S tiny = constant<S>(1e-6 * k.mass_kg * k.gravity_m_s2);
+  const S tiny = c(1e-6 * k.mass_kg * k.gravity_m_s2);
   Vector3<S> b3d = unit_or(F, tiny, e3);
   if (k.limit_tilt) {
     // Cone of half-angle a around +z: inside it nothing changes; above the cone's edge the
     // horizontal part is shortened onto it (vertical part kept); level or downward F gives the
     // cone edge on F's horizontal side, with F projected on it.
-    const S tan_a = constant<S>(k.tan_tilt);
+    const S tan_a = c(k.tan_tilt);
     const Vector3<S> F_h(F[0], F[1], zero);
     const S h = scalar::sqrt(dot(F_h, F_h));
     const auto outside = F[2] > zero && h > F[2] * tan_a;
@@ -154,7 +142,7 @@ Vector4<S> se3_law(const Se3LawConstants& k, const Se3LawInput<S>& in) {
     const Vector3<S> F_cone(F[0] * shrink, F[1] * shrink, F[2]);
     const Vector3<S> dir_h = unit_or(F_h, tiny, Vector3<S>(zero, zero, zero));
     const auto has_dir = h > tiny;
-    const S sin_a = constant<S>(k.sin_tilt), cos_a = constant<S>(k.cos_tilt);
+    const S sin_a = c(k.sin_tilt), cos_a = c(k.cos_tilt);
     const Vector3<S> edge =
         select(has_dir, Vector3<S>(sin_a * dir_h[0], sin_a * dir_h[1], cos_a), e3);
     const S along = scalar::max(dot(F, edge), zero);

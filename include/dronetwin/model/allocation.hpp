@@ -55,13 +55,12 @@ struct ThrustFirstAllocation {
 /// form inverse of each rotor's thrust polynomial.
 template <class S>
 ThrustFirstAllocation<S> allocate_thrust_first(const VehicleModel& model, const Vector4<S>& u) {
-  using V = scalar::value_type_t<S>;
   const int n = model.num_rotors();
   const AllocationInverse& pinv = model.allocation_pseudo_inverse();
-  const auto c = [](double v) { return S(static_cast<V>(v)); };
+  const auto c = [](double v) { return scalar::from_value<S>(v); };
+  const S zero = c(0.0);
   std::array<S, kMaxRotors> t_thrust{}, t_moment{}, lo{}, hi{};
-  ThrustFirstAllocation<S> r;
-  r.saturated = S(V(0)) != S(V(0));
+  ThrustFirstAllocation<S> r;  // saturated{}: false (a mask: false in every lane)
   S s = c(1.0);
   for (int i = 0; i < n; ++i) {
     const auto k = static_cast<std::size_t>(i);
@@ -74,10 +73,8 @@ ThrustFirstAllocation<S> allocate_thrust_first(const VehicleModel& model, const 
     r.saturated = r.saturated || base != t_thrust[k];
     // Largest s with lo <= base + s m <= hi for this rotor.
     const S m = t_moment[k];
-    s = scalar::select(m > S(V(0)) && base + s * m > hi[k],
-                       scalar::max(S(V(0)), (hi[k] - base) / m), s);
-    s = scalar::select(m < S(V(0)) && base + s * m < lo[k],
-                       scalar::max(S(V(0)), (lo[k] - base) / m), s);
+    s = scalar::select(m > zero && base + s * m > hi[k], scalar::max(zero, (hi[k] - base) / m), s);
+    s = scalar::select(m < zero && base + s * m < lo[k], scalar::max(zero, (lo[k] - base) / m), s);
   }
   r.saturated = r.saturated || s < c(1.0);
   r.moment_scale = s;

@@ -15,8 +15,8 @@
 // Normal: the ziggurat of noise/random.hpp, whose first candidate takes those 64 bits. About 99 %
 // of draws end there (one multiply, two table reads); the rest continue with a xoshiro256++
 // generator seeded from the bits (Random::normal_from), still a function of (key, n) alone.
-// counter_normal_pack() is the same thing for W streams at once: the common case per lane in
-// SIMD, the rest lane by lane, so every lane equals counter_normal() bit for bit.
+// counter_normals_pack() is the same for W streams and N draws at once: the common case in SIMD,
+// the rest lane by lane, so every lane equals counter_normal() bit for bit.
 
 #include <array>
 #include <cmath>
@@ -94,15 +94,6 @@ inline void counter_normals_pack(const Pack<std::uint64_t, W>& key,
     for (int l = 0; l < W; ++l)
       if (!inside[j][l]) out[j][l] = normal_of_counter_bits(bits[j][l]);
   }
-}
-
-/// W streams at once: lane l is counter_normal(key[l], n[l]), bit for bit.
-template <int W>
-inline Pack<double, W> counter_normal_pack(const Pack<std::uint64_t, W>& key,
-                                           const Pack<std::uint64_t, W>& n) {
-  std::array<Pack<double, W>, 1> x;
-  counter_normals_pack<W, 1>(key, n, x);
-  return x[0];
 }
 
 }  // namespace dronetwin
