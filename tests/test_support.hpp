@@ -23,6 +23,27 @@
 
 namespace dronetwin::test {
 
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define DRONETWIN_TEST_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define DRONETWIN_TEST_SANITIZED 1
+#endif
+#endif
+
+/// True in a build with AddressSanitizer or ThreadSanitizer. Such builds run 5-30x slower and are
+/// there to find memory and thread errors, not to repeat statistics: the longest batch tests use
+/// fewer lanes or steps in them (their tolerances follow the size), and the release stage runs
+/// every test at full size.
+#ifdef DRONETWIN_TEST_SANITIZED
+inline constexpr bool kSanitized = true;
+#else
+inline constexpr bool kSanitized = false;
+#endif
+
+/// `full` in a plain build, `sanitized` under a sanitizer.
+constexpr int full_or_sanitized(int full, int sanitized) { return kSanitized ? sanitized : full; }
+
 inline std::string source_path(const std::string& relative) {
   return std::string(DRONETWIN_SOURCE_DIR) + "/" + relative;
 }

@@ -134,7 +134,8 @@ double relative_gap(const StateVector& a, const StateVector& b) {
 // disturbance switches and three airframes (one with tilted rotors), with per-lane parameters,
 // wind, ground contact (lanes start on the ground) and lanes that may tumble and fail.
 TEST(BatchSimulator, EveryLaneEqualsTheSimulatorForAllSwitchCombinationsAndAirframes) {
-  constexpr int kSteps = 10000;  // 10 s at 1 kHz
+  // 10 s at 1 kHz; 2.5 s under a sanitizer (lanes start on the ground, so contact is still used).
+  constexpr int kSteps = test::full_or_sanitized(10000, 2500);
   constexpr int kLanesPerCase = 3;
   int lanes_checked = 0, lanes_touching = 0, lanes_failed = 0;
   double worst = 0.0;
@@ -200,15 +201,17 @@ std::vector<double> fly_and_collect(int n, int threads, const std::vector<LaneFl
   return out;
 }
 
-// Bitwise the same lanes whatever the number of threads and the batch size (1, 7, 1024): a lane
+// Bitwise the same lanes whatever the number of threads and the batch size (1, 7, 1024; 256 under
+// a sanitizer): a lane
 // depends only on its own inputs.
 TEST(BatchSimulator, ResultsAreBitwiseIndependentOfThreadsAndBatchSize) {
   const auto model = test::load_model("qdrone2");
   Random rng(99);
   std::vector<LaneFlight> flights;
-  for (int l = 0; l < 1024; ++l) flights.push_back(random_flight(*model, rng, l));
-  const std::vector<double> one_thread = fly_and_collect(1024, 1, flights, model);
-  const std::vector<double> two_threads = fly_and_collect(1024, 2, flights, model);
+  constexpr int kLanesUsed = test::full_or_sanitized(1024, 256);
+  for (int l = 0; l < kLanesUsed; ++l) flights.push_back(random_flight(*model, rng, l));
+  const std::vector<double> one_thread = fly_and_collect(kLanesUsed, 1, flights, model);
+  const std::vector<double> two_threads = fly_and_collect(kLanesUsed, 2, flights, model);
   ASSERT_EQ(one_thread.size(), two_threads.size());
   EXPECT_EQ(std::memcmp(one_thread.data(), two_threads.data(), one_thread.size() * sizeof(double)),
             0);
