@@ -496,7 +496,8 @@ void bind_control(py::module_& m) {
       .def(py::init<>())
       .def_readwrite("gravity_compensation", &Se3Options::gravity_compensation)
       .def_readwrite("max_tilt_rad", &Se3Options::max_tilt_rad)
-      .def_readwrite("nonnegative_thrust", &Se3Options::nonnegative_thrust);
+      .def_readwrite("nonnegative_thrust", &Se3Options::nonnegative_thrust)
+      .def_readwrite("min_thrust_N", &Se3Options::min_thrust_N);
 
   py::class_<Se3Controller, ControllerBase>(
       m, "Se3Controller", "Geometric tracking control on SE(3) (thesis Eq. 3.26-3.29).")

@@ -102,4 +102,5 @@ PYBIND11_MODULE(_core, m) {
   dp::bind_real_data(m);
   dp::bind_fit(m);
   dp::bind_batch(m);
+  dp::bind_rl(m);
 }

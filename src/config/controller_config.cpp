@@ -81,7 +81,7 @@ constexpr std::array<std::string_view, 2> kYawLoops = {"thesis", "rate"};
 
 constexpr std::array<std::string_view, 4> kSe3GainKeys = {"position_p", "position_d", "attitude_p",
                                                           "attitude_d"};
-constexpr std::array<std::string_view, 1> kSe3LimitKeys = {"max_tilt_rad"};
+constexpr std::array<std::string_view, 2> kSe3LimitKeys = {"max_tilt_rad", "min_thrust_N"};
 constexpr std::array<std::string_view, 2> kSe3OptionKeys = {"gravity_compensation",
                                                             "nonnegative_thrust"};
 
@@ -158,6 +158,8 @@ void read_se3(const Reader& rd, const Map& top, Se3Settings& c) {
     const Map l = rd.map(top.get("limits"), "limits", kSe3LimitKeys, "a map of limits");
     if (l.has("max_tilt_rad"))
       o.max_tilt_rad = tilt(rd, l.get("max_tilt_rad"), l.path("max_tilt_rad"));
+    if (l.has("min_thrust_N"))
+      o.min_thrust_N = rd.positive(l.get("min_thrust_N"), l.path("min_thrust_N"));
   }
   if (top.has("options")) {
     const Map p = rd.map(top.get("options"), "options", kSe3OptionKeys, "a map of options");

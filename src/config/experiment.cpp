@@ -19,6 +19,7 @@
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/logging/text_file.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "experiment_parts.hpp"
 #include "yaml_strict.hpp"
 
 namespace dronetwin {
@@ -583,6 +584,46 @@ Overloaded(Fs...) -> Overloaded<Fs...>;
 
 }  // namespace
 
+namespace io_detail {
+
+void read_sim_settings(const Reader& rd, const Map& top, SimConfig& sim) {
+  if (top.has("seed")) {
+    sim.seed = rd.integer<std::uint64_t>(top.get("seed"), "seed",
+                                         "an integer in [0, 18446744073709551615]");
+  }
+  if (top.has("physics_dt_s")) sim.dt_s = rd.positive(top.get("physics_dt_s"), "physics_dt_s");
+  if (top.has("integrator")) {
+    sim.integrator = rd.choice(top.get("integrator"), "integrator", kIntegrators, "integrator") == 0
+                         ? Integrator::kRk4
+                         : Integrator::kEuler;
+  }
+  if (top.has("motor_dynamics"))
+    sim.motor_dynamics = rd.boolean(top.get("motor_dynamics"), "motor_dynamics");
+  if (top.has("noise")) sim.noise = read_noise(rd, top.get("noise"), "noise");
+  if (top.has("wind_m_s"))
+    sim.environment.wind_W_m_s = rd.fixed<3>(top.get("wind_m_s"), "wind_m_s", "x, y, z in m/s");
+  if (top.has("gravity_m_s2"))
+    sim.environment.gravity_W_m_s2 =
+        rd.fixed<3>(top.get("gravity_m_s2"), "gravity_m_s2", "x, y, z in m/s^2");
+  if (top.has("disturbances"))
+    sim.disturbances = read_disturbances(rd, top.get("disturbances"), "disturbances");
+  if (top.has("ground")) sim.ground = read_ground(rd, top.get("ground"), "ground");
+  if (top.has("divergence"))
+    sim.divergence = read_divergence(rd, top.get("divergence"), "divergence");
+}
+
+std::shared_ptr<const Reference> read_reference_spec(const Reader& rd, const YAML::Node& node,
+                                                     const std::string& path) {
+  return read_reference(rd, node, path).first;
+}
+
+std::string find_named_file(const Reader& rd, const YAML::Node& node, const std::string& path,
+                            const std::string& what) {
+  return resolve_file(rd, node, path, rd.string(node, path), what);
+}
+
+}  // namespace io_detail
+
 // ---- public API -------------------------------------------------------------------------------
 
 RotorVector RotorSpeedSetting::resolve(const VehicleModel& model, double gravity_m_s2) const {
@@ -649,31 +690,8 @@ Experiment parse_experiment(const std::string& yaml_text, const std::string& sou
   if (top.has("description")) e.description = rd.string(top.get("description"), "description");
   e.model_path =
       resolve_file(rd, top.get("model"), "model", rd.string(top.get("model"), "model"), "model");
-  if (top.has("seed")) {
-    e.sim.seed = rd.integer<std::uint64_t>(top.get("seed"), "seed",
-                                           "an integer in [0, 18446744073709551615]");
-  }
+  io_detail::read_sim_settings(rd, top, e.sim);
   e.duration_s = rd.positive(top.get("duration_s"), "duration_s");
-  if (top.has("physics_dt_s")) e.sim.dt_s = rd.positive(top.get("physics_dt_s"), "physics_dt_s");
-  if (top.has("integrator")) {
-    e.sim.integrator =
-        rd.choice(top.get("integrator"), "integrator", kIntegrators, "integrator") == 0
-            ? Integrator::kRk4
-            : Integrator::kEuler;
-  }
-  if (top.has("motor_dynamics"))
-    e.sim.motor_dynamics = rd.boolean(top.get("motor_dynamics"), "motor_dynamics");
-  if (top.has("noise")) e.sim.noise = read_noise(rd, top.get("noise"), "noise");
-  if (top.has("wind_m_s"))
-    e.sim.environment.wind_W_m_s = rd.fixed<3>(top.get("wind_m_s"), "wind_m_s", "x, y, z in m/s");
-  if (top.has("gravity_m_s2"))
-    e.sim.environment.gravity_W_m_s2 =
-        rd.fixed<3>(top.get("gravity_m_s2"), "gravity_m_s2", "x, y, z in m/s^2");
-  if (top.has("disturbances"))
-    e.sim.disturbances = read_disturbances(rd, top.get("disturbances"), "disturbances");
-  if (top.has("ground")) e.sim.ground = read_ground(rd, top.get("ground"), "ground");
-  if (top.has("divergence"))
-    e.sim.divergence = read_divergence(rd, top.get("divergence"), "divergence");
   if (top.has("initial_state"))
     e.initial_state = read_initial_state(rd, top.get("initial_state"), "initial_state");
   if (top.has("log")) e.log = read_log(rd, top.get("log"), "log");

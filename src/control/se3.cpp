@@ -41,6 +41,7 @@ Se3LawConstants se3_law_constants(const Se3Gains& gains, const Se3Options& optio
     k.tan_tilt = std::tan(options.max_tilt_rad);
   }
   k.nonnegative_thrust = options.nonnegative_thrust;
+  k.min_thrust_N = options.min_thrust_N;
   k.inertia_kgm2 = J;
   return k;
 }
@@ -70,6 +71,9 @@ Se3Controller::Se3Controller(std::shared_ptr<const VehicleModel> model, const Se
               (options_.max_tilt_rad > 0.0 && options_.max_tilt_rad < std::numbers::pi / 2),
           "se3_geometric: max_tilt_rad: expected in (0, pi/2) (infinity: no limit), got ",
           options_.max_tilt_rad);
+  require(std::isfinite(options_.min_thrust_N) && options_.min_thrust_N >= 0.0,
+          "se3_geometric: min_thrust_N: expected a number >= 0 (0: no floor), got ",
+          options_.min_thrust_N);
   law_ = se3_law_constants(gains_, options_, this->model().inertia_kgm2());
 }
 

@@ -223,6 +223,9 @@ class BatchSimulator {
 
   /// Changes the number of threads (rebuilds the pool; results are unchanged).
   void set_num_threads(int num_threads);
+  /// The batch's threads, for work on its lanes between steps (an RL env's rewards and
+  /// observations); not while a step runs.
+  ThreadPool& thread_pool() { return *pool_; }
 
  private:
   std::size_t lane_index(int lane) const;

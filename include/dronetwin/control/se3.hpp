@@ -58,6 +58,11 @@ struct Se3Options {
   /// Clamp the collective thrust f = F . R e3 at >= 0 (as printed it may go negative when the
   /// body points away from F; rotors cannot push).
   bool nonnegative_thrust = false;
+  /// Floor of the collective thrust f, N (0: none; not in the thesis). A large descent request
+  /// makes F point downwards and f about 0, which leaves the thrust-first allocation no room for
+  /// moments: the attitude is then uncontrolled and the vehicle can tumble. A floor keeps
+  /// authority (config/controllers/se3_racing.yaml, docs/controllers.md).
+  double min_thrust_N = 0.0;
 };
 
 /// The constants of the law (control/se3_law.hpp) for these gains, options and inertia.

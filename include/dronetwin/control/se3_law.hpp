@@ -31,6 +31,7 @@ struct Se3LawConstants {
   bool limit_tilt = false;
   double cos_tilt = 0.0, sin_tilt = 1.0, tan_tilt = 0.0;
   bool nonnegative_thrust = false;
+  double min_thrust_N = 0.0;  ///< 0: no floor
   Mat3 inertia_kgm2 = Mat3::Identity();
 };
 
@@ -155,6 +156,7 @@ Vector4<S> se3_law(const Se3LawConstants& k, const Se3LawInput<S>& in) {
   const Vector3<S> Re3(R(0, 2), R(1, 2), R(2, 2));
   S f = dot(F, Re3);
   if (k.nonnegative_thrust) f = scalar::max(f, zero);
+  if (k.min_thrust_N > 0.0) f = scalar::max(f, c(k.min_thrust_N));
   const Vector3<S> M = se3_attitude_law(R, in.angular_velocity_B, b3d, in.cos_yaw, in.sin_yaw,
                                         k.attitude_p, k.attitude_d, k.inertia_kgm2);
   return Vector4<S>(f, M[0], M[1], M[2]);

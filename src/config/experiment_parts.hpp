@@ -1,0 +1,35 @@
+#pragma once
+// The parts of an experiment file that other file formats share (src/config only): the physics
+// settings of the top level, a `reference:` map, and files named relative to the file that
+// names them. Defined in experiment.cpp; docs/experiment-format.md describes them.
+
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "dronetwin/control/reference.hpp"
+#include "dronetwin/sim/sim_config.hpp"
+#include "yaml_strict.hpp"
+
+namespace dronetwin::io_detail {
+
+/// Top-level keys read by read_sim_settings.
+inline constexpr std::string_view kSimSettingKeys[] = {
+    "seed",     "physics_dt_s", "integrator",   "motor_dynamics", "noise",
+    "wind_m_s", "gravity_m_s2", "disturbances", "ground",         "divergence"};
+
+/// seed, physics_dt_s, integrator, motor_dynamics, noise, wind_m_s, gravity_m_s2, disturbances,
+/// ground and divergence of map `top`, where present, into `sim`.
+void read_sim_settings(const Reader& rd, const Map& top, SimConfig& sim);
+
+/// A `reference:` map (type circle, figure_eight, setpoint, ...).
+std::shared_ptr<const Reference> read_reference_spec(const Reader& rd, const YAML::Node& node,
+                                                     const std::string& path);
+
+/// The file named by string node `node`: relative to the reading file's directory if it is
+/// there, else to the current directory; fails naming `what` and where it looked.
+std::string find_named_file(const Reader& rd, const YAML::Node& node, const std::string& path,
+                            const std::string& what);
+
+}  // namespace dronetwin::io_detail

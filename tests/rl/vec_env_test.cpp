@@ -1,0 +1,397 @@
+// The RL vector env (rl/vec_env.hpp): spaces and the Eq. 4.18 observation, the reward terms
+// against a hand computation from the states, auto-reset, crashes and their causes, gates,
+// action modes, randomisation, determinism across threads and batch sizes, and bad input.
+
+#include "dronetwin/rl/vec_env.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+#include "dronetwin/config/env_config_loader.hpp"
+#include "dronetwin/config/track_loader.hpp"
+#include "dronetwin/math/quaternion.hpp"
+#include "dronetwin/world/gate.hpp"
+#include "test_support.hpp"
+
+namespace dronetwin::rl {
+namespace {
+
+EnvFile env_file(const std::string& name, const std::string& overrides = "") {
+  return load_env_config(test::source_path("config/rl/" + name + ".yaml"), overrides);
+}
+
+template <class T = double>
+VecEnv<T> make_env(const std::string& name, int n, const std::string& overrides = "",
+                   int threads = 1) {
+  EnvFile f = env_file(name, overrides);
+  return VecEnv<T>(f.model, f.config, n, threads);
+}
+
+// Straight track (config/tracks/straight.yaml): gates along +x.
+const std::string kStraight =
+    "{racing: {track: ../tracks/straight.yaml, laps: 1}, episode_time_s: 20}";
+
+TEST(VecEnvSpaces, RacingIsEquation418And419) {
+  auto env = make_env("racing", 3);
+  EXPECT_EQ(env.observation_size(), 45);           // Eq. 4.18
+  EXPECT_EQ(env.action_size(), 3);                 // Eq. 4.19
+  EXPECT_EQ(env.substeps(), 10);                   // 100 Hz over 1 kHz
+  const std::vector<double> hi = {1.0, 1.0, 1.5};  // Sec. 4.4.1
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(env.action_high()[static_cast<std::size_t>(i)], hi[static_cast<std::size_t>(i)]);
+    EXPECT_EQ(env.action_low()[static_cast<std::size_t>(i)], -hi[static_cast<std::size_t>(i)]);
+  }
+  const std::vector<std::pair<ObservationPiece, int>> expected = {
+      {ObservationPiece::kPosition, 3},       {ObservationPiece::kVelocity, 3},
+      {ObservationPiece::kRotation, 9},       {ObservationPiece::kBodyRates, 3},
+      {ObservationPiece::kPreviousAction, 3}, {ObservationPiece::kGateCorners, 24}};
+  ASSERT_EQ(env.observation_layout().size(), expected.size());
+  int offset = 0;
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_EQ(env.observation_layout()[i].piece, expected[i].first);
+    EXPECT_EQ(env.observation_layout()[i].offset, offset);
+    EXPECT_EQ(env.observation_layout()[i].size, expected[i].second);
+    offset += expected[i].second;
+  }
+  for (int i = 6; i < 15; ++i) {  // rotation entries
+    EXPECT_EQ(env.observation_low()[static_cast<std::size_t>(i)], -1.0);
+    EXPECT_EQ(env.observation_high()[static_cast<std::size_t>(i)], 1.0);
+  }
+}
+
+// The first observation of an episode: the start pose, R^T, zero previous action, and the next
+// two gates' corners relative to the vehicle, from the gate geometry written out by hand.
+TEST(VecEnvObservation, ResetObservationIsTheStartPoseAndTheNextGatesCorners) {
+  auto env = make_env("racing", 2, kStraight);
+  const Track& track = env.config().track;
+  const double* o = env.observation<double>();
+  const Vec3 p = track.start_position_m;
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(o[k], p[k]);
+    EXPECT_EQ(o[3 + k], 0.0);
+  }
+  // R^T of a yaw-only attitude: [[c, s, 0], [-s, c, 0], [0, 0, 1]].
+  const double c = std::cos(track.start_yaw_rad), s = std::sin(track.start_yaw_rad);
+  const double Rt[9] = {c, s, 0, -s, c, 0, 0, 0, 1};
+  for (int i = 0; i < 9; ++i) EXPECT_NEAR(o[6 + i], Rt[i], 1e-15) << i;
+  for (int i = 15; i < 21; ++i) EXPECT_EQ(o[i], 0.0);
+  for (int g = 0; g < 2; ++g) {
+    const Gate& gate = track.gates[static_cast<std::size_t>(g)];
+    // Corners in the order (+y,+z), (-y,+z), (-y,-z), (+y,-z) of the gate's axes.
+    const double sy[4] = {1, -1, -1, 1}, sz[4] = {1, 1, -1, -1};
+    for (int k = 0; k < 4; ++k) {
+      const Vec3 corner = gate.center_m + sy[k] * gate.width_m / 2 * gate.width_axis() +
+                          sz[k] * gate.height_m / 2 * gate.up_axis();
+      for (int i = 0; i < 3; ++i)
+        EXPECT_NEAR(o[21 + 12 * g + 3 * k + i], corner[i] - p[i], 1e-12) << g << " " << k;
+    }
+  }
+}
+
+// One step's reward, term by term, from the positions, action and body rate the env reports.
+TEST(VecEnvReward, TermsMatchAHandComputationOfEquation420) {
+  auto env = make_env("racing", 1, kStraight);
+  const Vec3 c0 = env.config().track.gates[0].center_m;
+  const auto pos = [&] { return env.batch().state(0).segment<3>(state_index::kPosition).eval(); };
+  double a[3] = {0.4, -0.2, 0.3};
+  for (int t = 0; t < 5; ++t) {
+    const Vec3 p0 = pos();
+    const Vec3 a_prev = t == 0 ? Vec3::Zero() : Vec3(0.4, -0.2, 0.3 - 0.05 * (t - 1));
+    a[2] = 0.3 - 0.05 * t;
+    env.step(a);
+    const Vec3 p1 = pos();
+    const Vec3 w = env.batch().state(0).segment<3>(state_index::kAngularVelocity);
+    const double progress = (p0 - c0).norm() - (p1 - c0).norm();
+    const double rate = (Vec3(a[0], a[1], a[2]) - a_prev).squaredNorm();
+    const double* terms = env.reward_terms_data();
+    EXPECT_DOUBLE_EQ(terms[0], 1.0 * progress);
+    EXPECT_DOUBLE_EQ(terms[1], -1e-4 * rate);
+    EXPECT_DOUBLE_EQ(terms[2], -2e-4 * w.norm());
+    EXPECT_EQ(terms[3], 0.0);
+    EXPECT_DOUBLE_EQ(env.reward_data()[0], terms[0] + terms[1] + terms[2] + terms[3]);
+    EXPECT_FALSE(env.done_data()[0]);
+    // Eq. 4.18: the previous action in the observation is the one just taken.
+    for (int i = 0; i < 3; ++i) EXPECT_EQ(env.observation<double>()[18 + i], a[i]);
+  }
+  EXPECT_GT(env.batch().state(0)[0], env.config().track.start_position_m[0]);  // moving on
+}
+
+// A time limit truncates every env at once; the last observation goes to final_observation,
+// the new episode starts at the task's start, and the statistics are reported.
+TEST(VecEnvAutoReset, TimeLimitTruncatesAndRestartsInTheSameStep) {
+  auto env = make_env("racing", 3, "{episode_time_s: 0.05}");
+  const std::vector<double> zero(9, 0.0);
+  for (int t = 0; t < 4; ++t) {
+    env.step(zero.data());
+    for (int e = 0; e < 3; ++e) ASSERT_FALSE(env.done_data()[e]);
+  }
+  const Vec3 before = env.batch().state(1).segment<3>(0);
+  env.step(zero.data());
+  const Vec3 start = env.config().track.start_position_m;
+  for (int e = 0; e < 3; ++e) {
+    EXPECT_TRUE(env.truncated_data()[e]);
+    EXPECT_FALSE(env.terminated_data()[e]);
+    EXPECT_EQ(env.end_cause_data()[e], static_cast<std::uint8_t>(EndCause::kTimeLimit));
+    EXPECT_EQ(env.finished_length_data()[e], 5);
+    EXPECT_EQ(env.episode_length_data()[e], 0);
+    EXPECT_EQ(env.episode_index_data()[e], 1);
+    const double* now = env.observation<double>() + 45 * e;
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(now[k], start[k]);
+  }
+  // The final observation is where the vehicle was after step 5 (hovering near the start, not
+  // exactly at it: the controller moved it).
+  const double* last = env.final_observation<double>() + 45;
+  (void)before;
+  const Vec3 final_p(last[0], last[1], last[2]);
+  EXPECT_NE(final_p, start);
+  EXPECT_LT((final_p - start).norm(), 0.05);
+}
+
+TEST(VecEnvTermination, FlyingIntoTheGroundIsACrashWithItsPenalty) {
+  auto env = make_env("hover", 2,
+                      "{hover: {target_m: [0, 0, 0.6], start_offset_m: [0, 0, 0]}, "
+                      "randomization: {position_m: [0, 0, 0], velocity_m_s: [0, 0, 0], "
+                      "attitude_rad: [0, 0, 0]}}");
+  const double down[6] = {0, 0, -1.5, 0, 0, 0};  // env 0 dives, env 1 holds
+  int steps = 0;
+  while (!env.done_data()[0] && steps < 300) {
+    env.step(down);
+    ++steps;
+    EXPECT_FALSE(env.done_data()[1]);
+  }
+  ASSERT_TRUE(env.done_data()[0]) << "no crash after " << steps << " steps";
+  EXPECT_TRUE(env.terminated_data()[0]);
+  EXPECT_EQ(env.end_cause_data()[0], static_cast<std::uint8_t>(EndCause::kGround));
+  EXPECT_EQ(env.reward_terms_data()[3 * 2 + 0], -5.0);  // Eq. 4.21
+  EXPECT_EQ(env.reward_terms_data()[3 * 2 + 1], 0.0);
+  EXPECT_LT(steps, 100);  // 0.6 m at up to 1.5 m per 10 ms reference jump: well under 1 s
+}
+
+// A NaN action ends that env's episode with its cause; the other envs fly exactly as in a run
+// where that env had a normal action.
+TEST(VecEnvBadInput, ANanActionEndsOnlyItsEnv) {
+  auto a = make_env("racing", 3);
+  auto b = make_env("racing", 3);
+  std::vector<double> act = {0.3, 0.1, 0.2, 0.3, 0.1, 0.2, -0.1, 0.2, 0.0};
+  std::vector<double> bad = act;
+  bad[3] = std::nan("");
+  a.step(act.data());
+  b.step(bad.data());
+  EXPECT_FALSE(b.done_data()[0]);
+  EXPECT_TRUE(b.terminated_data()[1]);
+  EXPECT_EQ(b.end_cause_data()[1], static_cast<std::uint8_t>(EndCause::kInvalidAction));
+  EXPECT_FALSE(b.done_data()[2]);
+  for (int e : {0, 2}) {
+    EXPECT_EQ(std::memcmp(a.observation<double>() + 45 * e, b.observation<double>() + 45 * e,
+                          45 * sizeof(double)),
+              0);
+    EXPECT_EQ(a.reward_data()[e], b.reward_data()[e]);
+  }
+}
+
+/// A simple pilot for the relative-position action: towards a point on the next gate's axis 1 m
+/// ahead of the vehicle's projection onto it (at most 0.5 m past the gate), the step scaled
+/// uniformly into the action box and then by 0.6 (about 3.5 m/s: the SE(3) loop's lateral
+/// damping is light, and faster it overshoots the 45-degree turns of the circuit). Flies every
+/// env for `steps` steps or until env 0's episode ends. `aim_offset` shifts the aim point.
+template <class T>
+void fly_at_gates(VecEnv<T>& env, int steps, const Vec3& aim_offset = Vec3::Zero()) {
+  const int n = env.num_envs();
+  const Vec3 box = env.config().relative_scale_m;
+  std::vector<double> act(static_cast<std::size_t>(3 * n));
+  for (int t = 0; t < steps; ++t) {
+    for (int e = 0; e < n; ++e) {
+      const Vec3 p = env.batch().state(e).template segment<3>(0);
+      const Gate& g = env.config().track.gates[static_cast<std::size_t>(env.next_gate_data()[e])];
+      const double along = g.normal().dot(p - g.center_m);
+      Vec3 d = g.center_m + std::min(along + 1.0, 0.5) * g.normal() + aim_offset - p;
+      const double fit = (box.array() / d.array().abs().max(1e-9)).minCoeff();
+      d *= 0.6 * std::min(1.0, fit);
+      for (int k = 0; k < 3; ++k) act[static_cast<std::size_t>(3 * e + k)] = d[k];
+    }
+    env.step(act.data());
+    if (env.done_data()[0]) return;
+  }
+}
+
+TEST(VecEnvGates, FlyingThroughEveryGateFinishesTheLap) {
+  auto env = make_env("racing", 1, kStraight);
+  const int gates = static_cast<int>(env.config().track.gates.size());
+  fly_at_gates(env, 2000);
+  ASSERT_TRUE(env.done_data()[0]);
+  EXPECT_EQ(env.end_cause_data()[0], static_cast<std::uint8_t>(EndCause::kFinished));
+  EXPECT_TRUE(env.terminated_data()[0]);
+  EXPECT_EQ(env.finished_gates_data()[0], gates);
+  EXPECT_EQ(env.finished_laps_data()[0], 1);
+  EXPECT_GT(env.finished_best_lap_data()[0], 0.0);
+  EXPECT_EQ(env.reward_terms_data()[3], 0.0);  // no crash penalty for finishing
+}
+
+TEST(VecEnvGates, AimingAtAFrameBarIsAGateFrameCrash) {
+  auto env = make_env("racing", 1, kStraight);
+  const Gate& g = env.config().track.gates[0];
+  // The centre line of the +y bar.
+  fly_at_gates(env, 2000, (g.width_m + g.frame_width_m) / 2 * g.width_axis());
+  ASSERT_TRUE(env.done_data()[0]);
+  EXPECT_EQ(env.end_cause_data()[0], static_cast<std::uint8_t>(EndCause::kGateFrame));
+  EXPECT_EQ(env.finished_gates_data()[0], 0);
+  EXPECT_EQ(env.reward_terms_data()[3], -5.0);
+}
+
+// The circuit is flyable gate by gate with the SE(3) inner loop: two laps of the shipped track.
+TEST(VecEnvGates, TheCircuitCanBeLappedWithoutACrash) {
+  auto env = make_env("racing", 1, "{racing: {laps: 2}, episode_time_s: 60}");
+  fly_at_gates(env, 6000);
+  ASSERT_TRUE(env.done_data()[0]);
+  EXPECT_EQ(env.end_cause_data()[0], static_cast<std::uint8_t>(EndCause::kFinished))
+      << kEndCauseNames[env.end_cause_data()[0]];
+  EXPECT_EQ(env.finished_gates_data()[0], 2 * static_cast<int>(env.config().track.gates.size()));
+  EXPECT_EQ(env.finished_laps_data()[0], 2);
+  // The lap time cannot beat the track's length at the pilot's top speed (~6 m/s).
+  EXPECT_GT(env.finished_best_lap_data()[0], env.config().track.length_m() / 6.0);
+}
+
+// Each low-level action mode holds a hover with the action that means "hover" in it.
+TEST(VecEnvActions, EveryModeHoldsHoverWithItsHoverAction) {
+  for (const char* mode :
+       {"rotor_speeds", "ctbr", "generalized_force", "global_position", "relative_position"}) {
+    SCOPED_TRACE(mode);
+    auto env = make_env("hover", 1,
+                        std::string("{action: ") + mode +
+                            ", hover: {start_offset_m: [0, 0, 0]}, randomization: {position_m: "
+                            "[0, 0, 0], velocity_m_s: [0, 0, 0], attitude_rad: [0, 0, 0]}}");
+    const VehicleModel& m = env.model();
+    std::vector<double> a;
+    const double thrust = m.hover_thrusts_N().sum();
+    const std::string name(mode);
+    if (name == "rotor_speeds") {
+      const RotorVector w = m.hover_speeds_rad_s();
+      a.assign(w.data(), w.data() + w.size());
+    } else if (name == "ctbr" || name == "generalized_force") {
+      a = {thrust, 0, 0, 0};
+    } else if (name == "global_position") {
+      const Vec3 t = env.target(0);
+      a = {t[0], t[1], t[2], 0.0};
+    } else {
+      a = {0, 0, 0};
+    }
+    ASSERT_EQ(static_cast<int>(a.size()), env.action_size());
+    const Vec3 start = env.batch().state(0).segment<3>(0);
+    for (int t = 0; t < 50; ++t) {  // 0.5 s
+      env.step(a.data());
+      ASSERT_FALSE(env.done_data()[0]) << kEndCauseNames[env.end_cause_data()[0]];
+    }
+    // Open-loop modes drift with the aerodynamic moments; a few cm in 0.5 s.
+    EXPECT_LT((env.batch().state(0).segment<3>(0) - start).norm(), 0.1);
+  }
+}
+
+// With normalized_actions, a_n in [-1, 1] means lo + (a_n + 1) / 2 (hi - lo): the same flight as
+// the physical action.
+TEST(VecEnvActions, NormalizedActionsMapOntoTheBox) {
+  auto phys = make_env("racing", 1);
+  auto norm = make_env("racing", 1, "{normalized_actions: true}");
+  const double a[3] = {0.5, -0.25, 0.75};
+  const double an[3] = {0.5 / 1.0, -0.25 / 1.0, 0.75 / 1.5};
+  for (int t = 0; t < 20; ++t) {
+    phys.step(a);
+    norm.step(an);
+  }
+  for (int k = 0; k < 13; ++k)
+    EXPECT_NEAR(phys.batch().state(0)[k], norm.batch().state(0)[k], 1e-12) << k;
+  // Clipping: beyond the box is the box's edge.
+  auto clipped = make_env("racing", 1);
+  auto edge = make_env("racing", 1);
+  const double big[3] = {5.0, -7.0, 9.0}, at_edge[3] = {1.0, -1.0, 1.5};
+  clipped.step(big);
+  edge.step(at_edge);
+  EXPECT_EQ(clipped.batch().state(0), edge.batch().state(0));
+}
+
+TEST(VecEnvRandomization, ParametersAreDrawnPerEnvWithinTheirRanges) {
+  auto env = make_env("hover", 64,
+                      "{randomization: {mass_scale: [0.8, 1.2], thrust_scale: [0.9, 1.1], "
+                      "wind_speed_max_m_s: 2.0}}");
+  const double m0 = env.model().mass_kg();
+  double lo = 1e9, hi = -1e9;
+  for (int e = 0; e < 64; ++e) {
+    const double m = env.batch().parameter(ModelParameter::kMass, e);
+    EXPECT_GE(m, 0.8 * m0 - 1e-12);
+    EXPECT_LE(m, 1.2 * m0 + 1e-12);
+    lo = std::min(lo, m);
+    hi = std::max(hi, m);
+  }
+  EXPECT_GT(hi - lo, 0.2 * m0);  // 64 uniform draws spread over most of the 0.4 m0 range
+  // A curriculum change applies at the next reset.
+  EnvConfig c = env.config();
+  c.randomization.mass_scale = {1.5, 1.5};
+  env.set_config(c);
+  env.reset_env(3);
+  EXPECT_DOUBLE_EQ(env.batch().parameter(ModelParameter::kMass, 3), 1.5 * m0);
+  EXPECT_NE(env.batch().parameter(ModelParameter::kMass, 4), 1.5 * m0);
+  EnvConfig bad = env.config();
+  bad.action = ActionMode::kCtbr;
+  EXPECT_THROW(env.set_config(bad), InvalidArgument);
+}
+
+/// Observations, rewards and flags of the first `n_compare` envs over a run with noise,
+/// randomisation and auto-resets.
+std::vector<double> run_for_determinism(int n, int threads, int n_compare) {
+  auto env = make_env("racing", n,
+                      "{noise: true, episode_time_s: 0.3, randomization: {mass_scale: [0.9, 1.1],"
+                      " position_m: [0.3, 0.3, 0.2], wind_speed_max_m_s: 1.0}}",
+                      threads);
+  env.reset(11);
+  std::vector<double> out, act(static_cast<std::size_t>(3 * n));
+  for (int t = 0; t < 70; ++t) {
+    for (int e = 0; e < n; ++e)
+      for (int k = 0; k < 3; ++k)
+        act[static_cast<std::size_t>(3 * e + k)] = 0.5 * std::sin(0.1 * t + e + k);
+    env.step(act.data());
+    for (int e = 0; e < n_compare; ++e) {
+      const double* o = env.observation<double>() + 45 * e;
+      out.insert(out.end(), o, o + 45);
+      out.push_back(env.reward_data()[e]);
+      out.push_back(env.done_data()[e]);
+    }
+  }
+  return out;
+}
+
+TEST(VecEnvDeterminism, BitwiseAcrossThreadsAndBatchSizes) {
+  const std::vector<double> one = run_for_determinism(5, 1, 5);
+  const std::vector<double> two = run_for_determinism(5, 2, 5);
+  const std::vector<double> big = run_for_determinism(test::full_or_sanitized(200, 37), 2, 5);
+  ASSERT_EQ(one.size(), two.size());
+  EXPECT_EQ(std::memcmp(one.data(), two.data(), one.size() * sizeof(double)), 0);
+  EXPECT_EQ(std::memcmp(one.data(), big.data(), one.size() * sizeof(double)), 0);
+}
+
+TEST(VecEnvBadInput, ConfigErrorsNameTheField) {
+  const auto message = [](const std::string& overrides) {
+    try {
+      env_file("racing", overrides);
+    } catch (const InvalidArgument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message("{task: racin}").find("task"), std::string::npos);
+  EXPECT_NE(message("{task: racin}").find("racing"), std::string::npos);
+  EXPECT_NE(message("{observation: [position, velocty]}").find("observation[1]"),
+            std::string::npos);
+  EXPECT_NE(message("{action: warp}").find("action"), std::string::npos);
+  EXPECT_NE(message("{randomization: {mass_scale: [1.2, 0.8]}}").find("randomization.mass_scale"),
+            std::string::npos);
+  EXPECT_NE(message("{reward: {progres: 1}}").find("progres"), std::string::npos);
+  EXPECT_NE(message("{racing: {track: nowhere.yaml}}").find("racing.track"), std::string::npos);
+  EXPECT_NE(message("{task: hover}").find("gate_corners"), std::string::npos);
+  EXPECT_NE(message("{control_rate_hz: 300}").find("control_rate_hz"), std::string::npos);
+  EXPECT_NE(message("{episode_time_s: -1}").find("episode_time_s"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace dronetwin::rl
