@@ -550,7 +550,7 @@ void VecEnv<T>::evaluate(int env) {
   const BatchSimulator<T>& b = *batch_;
   const double dt = control_dt_s();
   const double t_before = static_cast<double>(length_[e]) * dt;
-  const double t_now = t_before + dt;
+  const double t_now = static_cast<double>(length_[e] + 1) * dt;  // as target() computes it
   const Vec3 p0(start_position_[3 * e], start_position_[3 * e + 1], start_position_[3 * e + 2]);
   const Vec3 p1 = position(env);
   const StateVector x = b.state(env);
