@@ -74,7 +74,10 @@ VecEnv<T>::VecEnv(std::shared_ptr<const VehicleModel> model, EnvConfig config, i
   vehicle_radius_m_ =
       config_.vehicle_radius_m > 0.0 ? config_.vehicle_radius_m : rotor_extent_m(*model_);
   const double g = config_.sim.environment.gravity_W_m_s2.norm();
-  hover_thrust_N_ = model_->hover_thrusts_N(g).sum();
+  // Summed in a loop: Eigen's sum() over the dynamic-size rotor vector makes GCC 12 report a
+  // false maybe-uninitialized in its AVX-512 reduction (-march=native builds).
+  const RotorVector hover_thrusts = model_->hover_thrusts_N(g);
+  for (Eigen::Index i = 0; i < hover_thrusts.size(); ++i) hover_thrust_N_ += hover_thrusts[i];
   hover_speeds_ = model_->hover_speeds_rad_s(g);
 
   batch_ = std::make_unique<BatchSimulator<T>>(model_, config_.sim, num_envs, num_threads);
@@ -502,12 +505,17 @@ void VecEnv<T>::step_impl(const A* actions) {
           ") values, got none");
   BatchSimulator<T>& b = *batch_;
   const auto n = static_cast<std::size_t>(action_size_);
-  for (int env = 0; env < num_envs_; ++env) {
-    const auto e = static_cast<std::size_t>(env);
-    const Vec3 p = position(env);
-    for (int k = 0; k < 3; ++k) start_position_[3 * e + static_cast<std::size_t>(k)] = p[k];
-    take_action(env, actions + e * n);
-  }
+  const int tasks = (num_envs_ + kEnvsPerTask - 1) / kEnvsPerTask;
+  // Each env writes only its own lane of the inner loop's inputs: the pool may share them out.
+  b.thread_pool().run(tasks, [&](int task) {
+    const int end = std::min(num_envs_, (task + 1) * kEnvsPerTask);
+    for (int env = task * kEnvsPerTask; env < end; ++env) {
+      const auto e = static_cast<std::size_t>(env);
+      const Vec3 p = position(env);
+      for (int k = 0; k < 3; ++k) start_position_[3 * e + static_cast<std::size_t>(k)] = p[k];
+      take_action(env, actions + e * n);
+    }
+  });
   if (!force_.empty()) b.set_generalized_forces(force_.data());
   if (se3_)
     b.step(substeps_, *se3_);
@@ -517,7 +525,6 @@ void VecEnv<T>::step_impl(const A* actions) {
     b.step(substeps_);
 
   current_ ^= 1;
-  const int tasks = (num_envs_ + kEnvsPerTask - 1) / kEnvsPerTask;
   b.thread_pool().run(tasks, [&](int task) {
     const int end = std::min(num_envs_, (task + 1) * kEnvsPerTask);
     for (int env = task * kEnvsPerTask; env < end; ++env) evaluate(env);

@@ -7,6 +7,7 @@ repository's files (docs/reliability.md, "Fuzzing"):
                      and controller paths rewritten as seen from config/experiments/, where the
                      harness places its input)
   controller_config  config/controllers/*.yaml, tests/data/bad_controllers/*.yaml
+  track              config/tracks/*.yaml
   csv_log            the first rows of the real CSVs (tests/data/real) and of run and import logs
   crazyflie_csv      the first rows of the real CSVs
   log_metadata       sidecars of short runs (open and closed loop) and of the two importers
@@ -204,6 +205,9 @@ def main():
     reset("controller_config")
     copy_all("controller_config", "config/controllers/*.yaml", "controller_")
     copy_all("controller_config", "tests/data/bad_controllers/*.yaml", "bad_")
+
+    reset("track")
+    copy_all("track", "config/tracks/*.yaml", "track_")
 
     for harness in ("csv_log", "crazyflie_csv"):
         reset(harness)

@@ -1,0 +1,36 @@
+// libFuzzer harness: racing-track files (config/track_loader.hpp). Parses the input as a track;
+// for an accepted one, every gate's geometry is usable: finite corners inside the arena, and the
+// passage and frame tests on a segment through it return without trouble and finite numbers.
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "dronetwin/config/track_loader.hpp"
+#include "dronetwin/world/gate.hpp"
+#include "fuzz_support.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace dronetwin;
+  const std::string yaml = fuzz::text(data, size);
+  Track t;
+  if (!fuzz::accepted([&] { t = parse_track(yaml, "fuzz.yaml"); })) return 0;
+  fuzz::check(!t.gates.empty(), "an accepted track has no gates");
+  fuzz::check(std::isfinite(t.length_m()), "an accepted track has a non-finite length");
+  for (const Gate& g : t.gates) {
+    for (const Vec3& c : g.corners()) {
+      fuzz::check(c.allFinite(), "a gate corner is not finite");
+      fuzz::check(
+          (c.array() > t.arena_min_m.array()).all() && (c.array() < t.arena_max_m.array()).all(),
+          "a gate corner is outside the arena");
+    }
+    // At everyday coordinates (beyond ~1e15 m a unit step is lost to rounding).
+    if (!(g.center_m.norm() < 1e6)) continue;
+    const Vec3 before = g.center_m - g.normal(), after = g.center_m + g.normal();
+    fuzz::check(cross_gate(g, before, after) == GateCrossing::kThrough,
+                "a segment through a gate's centre along its normal does not pass it");
+    fuzz::check(std::isfinite(frame_distance_m(g, before, after)),
+                "the frame distance is not finite");
+  }
+  return 0;
+}
