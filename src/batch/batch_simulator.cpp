@@ -10,6 +10,7 @@
 #include "dronetwin/dynamics/motor.hpp"
 #include "dronetwin/model/allocation.hpp"
 #include "dronetwin/noise/counter_normal.hpp"
+#include "dronetwin/sim/state_checks.hpp"
 
 namespace dronetwin {
 
@@ -260,18 +261,10 @@ void BatchSimulator<T>::reset(int lane, const StateVector& state,
   require(rotor_speeds_rad_s.size() == model_->num_rotors(), "BatchSimulator::reset: lane ", lane,
           ": rotor speeds: expected ", model_->num_rotors(), " values, got ",
           rotor_speeds_rad_s.size());
-  for (int i = 0; i < kStateSize; ++i)
-    require(std::isfinite(state[i]), "BatchSimulator::reset: lane ", lane, ": state[", i,
-            "]: expected a finite number, got ", state[i]);
+  require_start_state(state, config_.ground.enabled, "BatchSimulator::reset: ", lane);
   for (Eigen::Index i = 0; i < rotor_speeds_rad_s.size(); ++i)
     require(std::isfinite(rotor_speeds_rad_s[i]), "BatchSimulator::reset: lane ", lane,
             ": rotor speeds[", i, "]: expected a finite number, got ", rotor_speeds_rad_s[i]);
-  const double qn = state.segment<4>(state_index::kQuaternion).norm();
-  require(qn > 1e-9, "BatchSimulator::reset: lane ", lane,
-          ": state[6:10]: the quaternion must be non-zero (it is normalised), got norm ", qn);
-  require(!(config_.ground.enabled && state[state_index::kPosition + 2] < 0.0),
-          "BatchSimulator::reset: lane ", lane, ": state[2]: z = ", state[2],
-          " m is below the ground (z = 0); disable ground contact to start below it");
   StateVector x = state;
   normalize_quaternion(x);
   const auto n = static_cast<std::size_t>(stride_);
@@ -445,13 +438,12 @@ void BatchSimulator<T>::set_generalized_forces(const T* u) {
 
 namespace {
 
-/// Why a lane's step failed, as Simulator::check_state says it.
-StepStatus classify_failure(const StateVector& x) {
-  using namespace state_index;
-  if (!x.allFinite()) return StepStatus::kNonFinite;
-  const double q2 = x.segment<4>(kQuaternion).squaredNorm();
-  if (!(q2 >= 0.25 && q2 <= 4.0)) return StepStatus::kInvalidState;
-  return StepStatus::kDiverged;
+/// Why a lane's step failed, as the Simulator says it (sim/state_checks.hpp). The pack's check
+/// already failed the lane; a float lane whose state passes once widened to double still
+/// failed in its own precision, and is reported as diverged.
+StepStatus classify_failure(const StateVector& x, const DivergenceLimits& limits) {
+  const StepStatus s = classify_state(x, limits);
+  return s == StepStatus::kOk ? StepStatus::kDiverged : s;
 }
 
 template <class P>
@@ -653,7 +645,8 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
     if (stdx::any_of(failed)) {
       for (int l = 0; l < kLanes; ++l) {
         if (!failed[l]) continue;
-        status_[base + l] = static_cast<std::uint8_t>(classify_failure(lane_state(next, l)));
+        status_[base + l] =
+            static_cast<std::uint8_t>(classify_failure(lane_state(next, l), config_.divergence));
         taken[static_cast<std::size_t>(l)] = s;
       }
     }

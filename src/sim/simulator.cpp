@@ -8,6 +8,7 @@
 #include "dronetwin/integrators/integrator.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/model/allocation.hpp"
+#include "dronetwin/sim/state_checks.hpp"
 
 namespace dronetwin {
 
@@ -118,15 +119,7 @@ void Simulator::reseed(std::uint64_t seed) {
 
 void Simulator::set_state(const StateVector& state) {
   const SingleThreadGuard::Hold hold(guard_, "Simulator::set_state");
-  for (int i = 0; i < kStateSize; ++i)
-    require(std::isfinite(state[i]), "state[", i, "]: expected a finite number, got ", state[i]);
-  const double qn = state.segment<4>(state_index::kQuaternion).norm();
-  require(qn > 1e-9, "state[6:10]: the quaternion must be non-zero (it is normalised), got norm ",
-          qn);
-  if (config_.ground.enabled && state[state_index::kPosition + 2] < 0.0) {
-    require(false, "state[2]: z = ", state[2],
-            " m is below the ground (z = 0); disable ground contact to start below it");
-  }
+  require_start_state(state, config_.ground.enabled, "");
   data_.state = state;
   normalize_quaternion(data_.state);
   update_measured_state();
@@ -183,25 +176,7 @@ void Simulator::set_wind(const Vec3& wind_W_m_s) {
 }
 
 StepStatus Simulator::check_state(const StateVector& x) const {
-  using namespace state_index;
-  const DivergenceLimits& lim = config_.divergence;
-  // Squared norms against squared limits (the limits are positive): no square roots on the
-  // path taken every step. A NaN or inf anywhere makes its block's squared norm fail the
-  // comparison too, so one test covers both; which failure it was is sorted out only then.
-  const double p2 = x.segment<3>(kPosition).squaredNorm(),
-               v2 = x.segment<3>(kVelocity).squaredNorm(),
-               q2 = x.segment<4>(kQuaternion).squaredNorm(),
-               w2 = x.segment<3>(kAngularVelocity).squaredNorm();
-  // After normalisation |q|^2 is 1 up to rounding; 0 means a zero quaternion, which normalize()
-  // leaves at zero.
-  if (p2 <= lim.max_position_m * lim.max_position_m &&
-      v2 <= lim.max_speed_m_s * lim.max_speed_m_s &&
-      w2 <= lim.max_angular_speed_rad_s * lim.max_angular_speed_rad_s && q2 <= 4.0 && q2 >= 0.25) {
-    return StepStatus::kOk;
-  }
-  if (!x.allFinite()) return StepStatus::kNonFinite;
-  if (!(q2 >= 0.25 && q2 <= 4.0)) return StepStatus::kInvalidState;
-  return StepStatus::kDiverged;
+  return classify_state(x, config_.divergence);
 }
 
 std::string Simulator::failure_message() const {
