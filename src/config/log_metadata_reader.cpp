@@ -16,6 +16,7 @@ namespace dronetwin {
 
 namespace {
 
+using io_detail::load_json;
 using io_detail::Map;
 using io_detail::Reader;
 
@@ -55,6 +56,7 @@ std::string text(const Reader& rd, const YAML::Node& node, const std::string& pa
             std::string("expected a ") + (allow_empty ? "" : "non-empty ") + "string, got " +
                 io_detail::describe(node));
   }
+  if (!io_detail::is_utf8(node.Scalar())) rd.fail(node, path, io_detail::kNotUtf8AfterEscapes);
   return node.Scalar();
 }
 
@@ -70,36 +72,6 @@ bool is_hash(std::string_view s) {
 }  // namespace
 
 // ---- reader -----------------------------------------------------------------------------------
-
-namespace {
-// Not Reader::parse: its messages speak of YAML, and a sidecar is JSON.
-YAML::Node load_json(const std::string& json_text, const std::string& source_name) {
-  io_detail::require_utf8(json_text, source_name, "JSON");
-  // JSON (RFC 8259) has no raw control characters: inside strings they are escaped, outside only
-  // tab, line feed and carriage return separate tokens. A raw NUL in a string was read into the
-  // metadata, written back as \u0000 and then not read again (found by the fuzzer).
-  for (std::size_t i = 0; i < json_text.size(); ++i) {
-    const auto c = static_cast<unsigned char>(json_text[i]);
-    if (c < 0x20 && c != '\t' && c != '\n' && c != '\r') {
-      std::size_t line = 1;
-      for (std::size_t k = 0; k < i; ++k) line += json_text[k] == '\n';
-      char code[8];
-      std::snprintf(code, sizeof code, "0x%02x", static_cast<unsigned>(c));
-      throw InvalidArgument(source_name + ": line " + std::to_string(line) + ", byte " +
-                            std::to_string(i) + ": control character " + code +
-                            " (JSON allows control characters only as escapes inside strings)");
-    }
-  }
-  try {
-    return YAML::Load(json_text);
-  } catch (const YAML::ParserException& e) {
-    throw InvalidArgument(source_name + ": line " + std::to_string(e.mark.line + 1) + ", column " +
-                          std::to_string(e.mark.column + 1) + ": JSON syntax error: " + e.msg);
-  } catch (const YAML::Exception& e) {
-    throw InvalidArgument(source_name + ": cannot parse JSON: " + e.what());
-  }
-}
-}  // namespace
 
 std::string log_sidecar_format(const std::string& json_path) {
   const YAML::Node root = load_json(read_text_file(json_path, "log metadata"), json_path);

@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -156,8 +157,13 @@ template bool parse_integer(std::string_view, unsigned&);
 template bool parse_integer(std::string_view, unsigned long&);
 template bool parse_integer(std::string_view, unsigned long long&);
 
-void require_utf8(std::string_view text, const std::string& source, std::string_view format) {
-  std::size_t line = 1, column = 1;
+namespace {
+/// The first byte of `text` that is not part of a well-formed UTF-8 sequence (text.size() if
+/// none), and the length of the sequence it starts or sits in (0: a byte UTF-8 never starts with).
+struct Utf8Error {
+  std::size_t bad, start, length;
+};
+Utf8Error first_utf8_error(std::string_view text) {
   for (std::size_t i = 0; i < text.size();) {
     const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(text[k]); };
     const unsigned char b = byte(i);
@@ -188,24 +194,94 @@ void require_utf8(std::string_view text, const std::string& source, std::string_
       const unsigned char c = byte(i + k);
       if (!(k == 1 ? (c >= lo && c <= hi) : (c >= 0x80 && c <= 0xBF))) bad = i + k;
     }
-    if (bad != text.size()) {
-      static constexpr char kHex[] = "0123456789ABCDEF";
-      const unsigned char c = byte(bad);
-      throw InvalidArgument(source + ": line " + std::to_string(line) + ", column " +
-                            std::to_string(column) + ": expected UTF-8 text (as " +
-                            std::string(format) + " is), got byte 0x" + kHex[c >> 4] +
-                            kHex[c & 0xF] +
-                            (n == 0     ? ""
-                             : bad == i ? " (a character cut off at the end)"
-                                        : " inside a multi-byte character"));
-    }
-    if (b == '\n') {
+    if (bad != text.size()) return {bad, i, n};
+    i += n;
+  }
+  return {text.size(), text.size(), 0};
+}
+}  // namespace
+
+bool is_utf8(std::string_view text) { return first_utf8_error(text).bad == text.size(); }
+
+void require_utf8(std::string_view text, const std::string& source, std::string_view format) {
+  const Utf8Error e = first_utf8_error(text);
+  if (e.bad == text.size()) return;
+  std::size_t line = 1, column = 1;
+  for (std::size_t k = 0; k < e.start;) {
+    if (text[k] == '\n') {
       ++line;
       column = 1;
     } else {
       ++column;
     }
-    i += n;
+    // One column per character: skip the continuation bytes of a (well-formed) sequence.
+    ++k;
+    while (k < e.start && (static_cast<unsigned char>(text[k]) & 0xC0) == 0x80) ++k;
+  }
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  const auto c = static_cast<unsigned char>(text[e.bad]);
+  throw InvalidArgument(source + ": line " + std::to_string(line) + ", column " +
+                        std::to_string(column) + ": expected UTF-8 text (as " +
+                        std::string(format) + " is), got byte 0x" + kHex[c >> 4] + kHex[c & 0xF] +
+                        (e.length == 0      ? ""
+                         : e.bad == e.start ? " (a character cut off at the end)"
+                                            : " inside a multi-byte character"));
+}
+
+YAML::Node load_json(const std::string& json_text, const std::string& source_name) {
+  io_detail::require_utf8(json_text, source_name, "JSON");
+  // JSON (RFC 8259) has no raw control characters: inside strings they are escaped, outside only
+  // tab, line feed and carriage return separate tokens. A raw NUL in a string was read into the
+  // metadata, written back as \u0000 and then not read again (found by the fuzzer). yaml-cpp also
+  // reads YAML's own escapes and single-quoted strings; its \N and \_ decode to bytes that are
+  // not UTF-8 (found by the fuzzer too), so only JSON's escapes and double quotes pass.
+  std::size_t line = 1, line_start = 0;
+  const auto fail_at = [&](std::size_t i, const std::string& what) {
+    std::size_t column = 1;  // characters, not bytes (the text is UTF-8 by now)
+    for (std::size_t k = line_start; k < i; ++k)
+      column += (static_cast<unsigned char>(json_text[k]) & 0xC0) != 0x80;
+    throw InvalidArgument(source_name + ": line " + std::to_string(line) + ", column " +
+                          std::to_string(column) + ": " + what);
+  };
+  bool in_string = false;
+  for (std::size_t i = 0; i < json_text.size(); ++i) {
+    const char c = json_text[i];
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 && (in_string || (c != '\t' && c != '\n' && c != '\r'))) {
+      char code[8];
+      std::snprintf(code, sizeof code, "0x%02x", static_cast<unsigned>(u));
+      fail_at(i,
+              std::string("control character ") + code +
+                  (in_string ? " inside a string (JSON writes it as an escape there)"
+                             : " (JSON allows control characters only as escapes inside strings)"));
+    }
+    if (c == '\n') {
+      ++line;
+      line_start = i + 1;
+    }
+    if (!in_string) {
+      if (c == '"') in_string = true;
+      if (c == '\'') fail_at(i, "a single quote (JSON strings are in double quotes)");
+      continue;
+    }
+    if (c == '"') {
+      in_string = false;
+    } else if (c == '\\') {
+      const char e = i + 1 < json_text.size() ? json_text[i + 1] : '\0';
+      if (std::string_view("\"\\/bfnrtu").find(e) == std::string_view::npos || e == '\0') {
+        fail_at(i, std::string("escape \\") + (e >= 0x20 && e < 0x7f ? std::string(1, e) : "") +
+                       " is not JSON (JSON has \\\" \\\\ \\/ \\b \\f \\n \\r \\t \\uXXXX)");
+      }
+      ++i;  // the escaped character
+    }
+  }
+  try {
+    return YAML::Load(json_text);
+  } catch (const YAML::ParserException& e) {
+    throw InvalidArgument(source_name + ": line " + std::to_string(e.mark.line + 1) + ", column " +
+                          std::to_string(e.mark.column + 1) + ": JSON syntax error: " + e.msg);
+  } catch (const YAML::Exception& e) {
+    throw InvalidArgument(source_name + ": cannot parse JSON: " + e.what());
   }
 }
 
@@ -344,6 +420,7 @@ bool Reader::boolean(const YAML::Node& node, const std::string& path) const {
 std::string Reader::string(const YAML::Node& node, const std::string& path) const {
   if (!node.IsScalar() || node.Scalar().empty())
     fail(node, path, "expected a non-empty string, got " + describe(node));
+  if (!is_utf8(node.Scalar())) fail(node, path, kNotUtf8AfterEscapes);
   return node.Scalar();
 }
 

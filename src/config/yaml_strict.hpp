@@ -78,6 +78,22 @@ bool parse_integer(std::string_view text, Int& out);
 /// (an overlong form, a surrogate or a code point past U+10FFFF included). Checked before
 /// yaml-cpp sees a text, so that a file in another encoding, or a corrupted one, is named as such.
 void require_utf8(std::string_view text, const std::string& source, std::string_view format);
+/// True when `text` is well-formed UTF-8.
+bool is_utf8(std::string_view text);
+/// The message for a quoted scalar whose escapes decode to something that is not UTF-8: yaml-cpp
+/// 0.7 turns the YAML escapes \N and \_ into the single bytes 0x85 and 0xA0, which nothing that
+/// reads the string back (a log sidecar, say) accepts (found by the fuzzers).
+inline constexpr const char* kNotUtf8AfterEscapes =
+    "the string is not UTF-8 once its escapes are decoded (yaml-cpp decodes \\N and \\_ to "
+    "single bytes; write the characters themselves or \\u0085, \\u00a0)";
+
+/// The JSON document of `json_text` (a file's text; `source_name` names it in messages), parsed
+/// by yaml-cpp (JSON is YAML 1.2 flow syntax) after checks that keep YAML's extensions out:
+/// UTF-8, no raw control characters (inside strings they are escaped, outside only tab, line
+/// feed and carriage return), no single quotes and only JSON's escapes. Errors are
+/// InvalidArgument "<source>: line L, column C: ...", and "JSON syntax error" for yaml-cpp's.
+/// (Not Reader::parse: its messages speak of YAML.)
+YAML::Node load_json(const std::string& json_text, const std::string& source_name);
 
 // ---- files ------------------------------------------------------------------------------------
 

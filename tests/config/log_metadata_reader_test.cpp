@@ -412,15 +412,55 @@ TEST(LogMetadataReader, ASidecarThatIsNotUtf8IsRefusedWithLineAndColumn) {
 // Found by the fuzzer: a raw NUL inside a string was accepted, written back as \u0000, and the
 // written sidecar then did not read again. Raw control characters are refused up front; an
 // accepted sidecar's JSON always reads back.
-TEST(LogMetadataReader, ARawControlCharacterIsRefusedWithLineAndByte) {
+TEST(LogMetadataReader, ARawControlCharacterIsRefusedWithLineAndColumn) {
   std::string text = "{\n  \"format\": \"dronetwin.run_log\",\n  \"experiment\": \"se3_";
   text += std::string(1, '\0') + "circle\"\n}\n";
   const std::string message = error_of([&] { (void)parse_log_metadata(text, "nul.json"); });
-  EXPECT_NE(message.find("nul.json: line 3, byte 56: control character 0x00"), std::string::npos)
+  EXPECT_NE(message.find("nul.json: line 3, column 22: control character 0x00 inside a string"),
+            std::string::npos)
       << message;
   text[56] = '\x01';
   EXPECT_NE(error_of([&] { (void)parse_log_metadata(text, "soh.json"); }).find("0x01"),
             std::string::npos);
+  // JSON has no raw line breaks or tabs inside strings either (yaml-cpp would fold them).
+  EXPECT_NE(error_of([] {
+              (void)parse_log_metadata("{\"format\": \"dronetwin.\n run_log\"}", "nl.json");
+            }).find("nl.json: line 1, column 23: control character 0x0a inside a string"),
+            std::string::npos);
+}
+
+// Found by the fuzzer: yaml-cpp reads a sidecar as YAML, and YAML's escapes \N and \_ decode to
+// the single bytes 0x85 and 0xA0, not UTF-8: the metadata was accepted and its JSON, written
+// back, was not. Only JSON's escapes (and double-quoted strings) are read; the same characters
+// written as JSON escapes read back.
+TEST_F(LogMetadataTest, EscapesAndQuotesThatAreNotJsonAreRefused) {
+  const auto message = [](const std::string& text) {
+    return error_of([&] { (void)parse_log_metadata(text, "esc.json"); });
+  };
+  EXPECT_NE(
+      message("{\n  \"format\": \"dronetwin\\N\"\n}")
+          .find("esc.json: line 2, column 23: escape \\N is not JSON (JSON has \\\" \\\\ \\/ \\b "
+                "\\f \\n \\r \\t \\uXXXX)"),
+      std::string::npos)
+      << message("{\n  \"format\": \"dronetwin\\N\"\n}");
+  EXPECT_NE(message("{\"format\": \"a\\_b\"}").find("escape \\_ is not JSON"), std::string::npos);
+  EXPECT_NE(message("{\"format\": \"a\\x41\"}").find("escape \\x is not JSON"), std::string::npos);
+  EXPECT_NE(message("{\"format\": 'dronetwin.run_log'}")
+                .find("line 1, column 12: a single quote (JSON strings are in double quotes)"),
+            std::string::npos);
+  // A quote inside a double-quoted string, escaped quotes and backslashes are JSON.
+  EXPECT_NE(message("{\"format\": \"it's \\\"x\\\" \\\\\"}").find("expected \"dronetwin.run_log\""),
+            std::string::npos);
+
+  // The characters themselves, as \u escapes, go through and read back after writing.
+  const LogMetadata m = parse_log_metadata(read_all(open_loop_run("run").metadata_path), "r.json");
+  std::string text = log_metadata_to_json(m);
+  const std::string key = "\"experiment\": \"";
+  text.insert(text.find(key) + key.size(), "\\u0085\\u00a0");
+  const LogMetadata escaped = parse_log_metadata(text, "u.json");
+  EXPECT_EQ(escaped.experiment, "\u0085\u00a0" + m.experiment);
+  EXPECT_EQ(parse_log_metadata(log_metadata_to_json(escaped), "again.json").experiment,
+            escaped.experiment);
 }
 
 }  // namespace

@@ -501,6 +501,19 @@ TEST(ModelLoader, TextThatIsNotUtf8IsRefusedWithLineAndColumn) {
                 .find("line 1, column 9: expected UTF-8 text (as YAML is), got byte 0xE2 (a "
                       "character cut off at the end)"),
             std::string::npos);
+  // yaml-cpp decodes the YAML escapes \N and \_ to single bytes that are not UTF-8: a name
+  // holding them would make every log sidecar written with it unreadable (found by the fuzzers).
+  {
+    std::ifstream in(model_path("qdrone2.yaml"), std::ios::binary);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::size_t at = text.find("name: qdrone2");
+    ASSERT_NE(at, std::string::npos);
+    text.replace(at, 13, "name: \"qdrone\\N2\"");
+    EXPECT_NE(
+        message(text).find("enc.yaml: name: the string is not UTF-8 once its escapes are decoded"),
+        std::string::npos)
+        << message(text);
+  }
   // Well-formed UTF-8 of every length is fine.
   std::ifstream in(model_path("qdrone2.yaml"), std::ios::binary);
   const std::string qdrone2((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

@@ -1,7 +1,9 @@
 # Runs one libFuzzer harness for SECONDS over a fresh copy of its seed corpus, so that the
 # repository is never written to; crash, timeout and out-of-memory inputs land in WORK/artifacts.
-# Fails on any finding (libFuzzer's non-zero exit) and when nothing was executed.
-#   cmake -DFUZZER=path -DSEEDS=dir -DWORK=dir -DSECONDS=n -P run_fuzzer.cmake
+# Fails on any finding (libFuzzer's non-zero exit) and when nothing was executed. SEED fixes
+# libFuzzer's random stream, so that a run explores the same inputs each time (CI stays
+# reproducible; a finding reproduces with the same seed); SEED=0 lets libFuzzer pick one.
+#   cmake -DFUZZER=path -DSEEDS=dir -DWORK=dir -DSECONDS=n [-DSEED=n] -P run_fuzzer.cmake
 foreach(var FUZZER SEEDS WORK SECONDS)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "run_fuzzer.cmake: -D${var}=... missing")
@@ -13,8 +15,11 @@ endif()
 file(REMOVE_RECURSE "${WORK}")
 file(MAKE_DIRECTORY "${WORK}/corpus" "${WORK}/artifacts")
 file(COPY "${SEEDS}/" DESTINATION "${WORK}/corpus")
+if(NOT DEFINED SEED)
+  set(SEED 0)
+endif()
 execute_process(
-  COMMAND "${FUZZER}" -max_total_time=${SECONDS} -rss_limit_mb=2048 -timeout=10
+  COMMAND "${FUZZER}" -max_total_time=${SECONDS} -seed=${SEED} -rss_limit_mb=2048 -timeout=10
           -print_final_stats=1 -artifact_prefix=${WORK}/artifacts/ "${WORK}/corpus"
   RESULT_VARIABLE status
   OUTPUT_VARIABLE output
@@ -37,4 +42,4 @@ set(peak "?")
 if(output MATCHES "stat::peak_rss_mb: *([0-9]+)")
   set(peak ${CMAKE_MATCH_1})
 endif()
-message("${FUZZER}: ${runs} inputs in ${SECONDS} s, peak RSS ${peak} MB, no finding")
+message("${FUZZER}: ${runs} inputs in ${SECONDS} s (seed ${SEED}), peak RSS ${peak} MB, no finding")
