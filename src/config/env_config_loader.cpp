@@ -34,6 +34,7 @@ Names top_level_keys() {
              "normalized_actions",
              "relative_scale_m",
              "max_body_rate_rad_s",
+             "max_thrust_to_weight",
              "se3_controller",
              "body_rate_gains",
              "vehicle_radius_m",
@@ -52,7 +53,8 @@ const Names kArenaKeys = {"min", "max"};
 const Names kHoverKeys = {"target_m", "target_range_m", "start_offset_m"};
 const Names kTrajectoryKeys = {"reference", "time_offset_max_s"};
 const Names kRacingKeys = {"track", "laps", "random_start_gate"};
-const Names kRewardKeys = {"progress", "action_rate", "angular", "crash", "gate", "distance"};
+const Names kRewardKeys = {"progress", "action_rate", "angular", "crash",
+                           "gate",     "distance",    "alive"};
 const Names kRandomizationKeys = {
     "mass_scale",         "inertia_scale", "thrust_scale", "motor_time_scale", "drag_scale",
     "wind_speed_max_m_s", "position_m",    "velocity_m_s", "attitude_rad",     "body_rate_rad_s"};
@@ -158,6 +160,14 @@ EnvFile parse_env_config(const std::string& yaml_text, const std::string& source
   if (top.has("max_body_rate_rad_s"))
     c.max_body_rate_rad_s = rd.fixed<3>(top.get("max_body_rate_rad_s"), "max_body_rate_rad_s",
                                         "roll, pitch, yaw rates in rad/s");
+  if (top.has("max_thrust_to_weight")) {
+    c.max_thrust_to_weight = rd.number(top.get("max_thrust_to_weight"), "max_thrust_to_weight");
+    if (c.max_thrust_to_weight < 0.0) {
+      rd.fail(top.get("max_thrust_to_weight"), "max_thrust_to_weight",
+              "expected a number >= 0 (0: the full rotor range), got " +
+                  io_detail::format_number(c.max_thrust_to_weight));
+    }
+  }
   // SE(3) inner loop of the position modes: a controller file (its mass, or the model's).
   c.se3_gains.mass_kg = f.model->mass_kg();
   c.se3_options = Se3Options{};
@@ -243,6 +253,7 @@ EnvFile parse_env_config(const std::string& yaml_text, const std::string& source
     weight("crash", w.crash);
     weight("gate", w.gate);
     weight("distance", w.distance);
+    weight("alive", w.alive);
   }
   if (top.has("randomization")) {
     const Map m = rd.map(top.get("randomization"), "randomization", kRandomizationKeys,

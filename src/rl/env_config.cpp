@@ -76,6 +76,9 @@ void validate(const EnvConfig& c) {
   require(c.relative_scale_m.allFinite() && (c.relative_scale_m.array() > 0.0).all(),
           "EnvConfig: relative_scale_m: expected three positive numbers, got [",
           c.relative_scale_m.transpose(), "]");
+  require(std::isfinite(c.max_thrust_to_weight) && c.max_thrust_to_weight >= 0.0,
+          "EnvConfig: max_thrust_to_weight: expected a number >= 0 (0: full rotor range), got ",
+          c.max_thrust_to_weight);
   require(c.max_body_rate_rad_s.allFinite() && (c.max_body_rate_rad_s.array() > 0.0).all(),
           "EnvConfig: max_body_rate_rad_s: expected three positive numbers, got [",
           c.max_body_rate_rad_s.transpose(), "]");

@@ -1,6 +1,7 @@
 #include "dronetwin/rl/vec_env.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -8,6 +9,7 @@
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/model/model_parameters.hpp"
 #include "dronetwin/noise/counter_normal.hpp"
+#include "dronetwin/rl/action_space.hpp"
 #include "dronetwin/world/gate.hpp"
 #include "dronetwin/world/obstacle.hpp"
 
@@ -20,28 +22,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::uint64_t kDrawsPerEpisode = 64;
 // Envs per task of the parallel evaluation: enough to amortise a task hand-out.
 constexpr int kEnvsPerTask = 64;
-
-int piece_size(ObservationPiece p, int action_size, int rotors, int lookahead) {
-  switch (p) {
-    case ObservationPiece::kPosition:
-    case ObservationPiece::kVelocity:
-    case ObservationPiece::kBodyRates:
-    case ObservationPiece::kTargetRelative:
-    case ObservationPiece::kTargetVelocity:
-      return 3;
-    case ObservationPiece::kRotation:
-      return 9;
-    case ObservationPiece::kQuaternion:
-      return 4;
-    case ObservationPiece::kPreviousAction:
-      return action_size;
-    case ObservationPiece::kGateCorners:
-      return 12 * lookahead;
-    case ObservationPiece::kRotorSpeeds:
-      return rotors;
-  }
-  return 0;
-}
+// Room for the previous action of any mode (rotor speeds: one per rotor).
+constexpr int kMaxActionSize = std::max(4, kMaxRotors);
 
 // Largest distance of a rotor hub from the body origin, plus a propeller radius: the sphere that
 // stands for the vehicle when nothing else is given.
@@ -145,59 +127,27 @@ template <class T>
 void VecEnv<T>::build_spaces() {
   const VehicleModel& m = *model_;
   const int rotors = m.num_rotors();
-  double max_thrust_N = 0.0;
-  for (int i = 0; i < rotors; ++i) max_thrust_N += m.rotor(i).thrust(m.rotor(i).max_speed_rad_s);
-  action_low_.clear();
-  action_high_.clear();
-  const auto add = [&](double lo, double hi) {
-    action_low_.push_back(lo);
-    action_high_.push_back(hi);
-  };
-  const Vec3 arena_min =
-      config_.task == Task::kRacing ? config_.track.arena_min_m : config_.arena_min_m;
-  const Vec3 arena_max =
-      config_.task == Task::kRacing ? config_.track.arena_max_m : config_.arena_max_m;
-  switch (config_.action) {
-    case ActionMode::kRelativePosition:
-      for (int k = 0; k < 3; ++k) add(-config_.relative_scale_m[k], config_.relative_scale_m[k]);
-      break;
-    case ActionMode::kGlobalPosition:
-      for (int k = 0; k < 3; ++k) add(arena_min[k], arena_max[k]);
-      add(-M_PI, M_PI);
-      break;
-    case ActionMode::kRotorSpeeds:
-      for (int i = 0; i < rotors; ++i) add(m.rotor(i).min_speed_rad_s, m.rotor(i).max_speed_rad_s);
-      break;
-    case ActionMode::kCtbr:
-      add(0.0, max_thrust_N);
-      for (int k = 0; k < 3; ++k)
-        add(-config_.max_body_rate_rad_s[k], config_.max_body_rate_rad_s[k]);
-      break;
-    case ActionMode::kGeneralizedForce: {
-      // Moments: what half of every rotor's thrust range, used differentially, gives about each
-      // axis (sum over rotors of |A_k,i| T_max,i / 2, A the allocation matrix).
-      add(0.0, max_thrust_N);
-      const AllocationMatrix& A = m.allocation_matrix();
-      for (int k = 1; k < 4; ++k) {
-        double tau = 0.0;
-        for (int i = 0; i < rotors; ++i)
-          tau += std::abs(A(k, i)) * m.rotor(i).thrust(m.rotor(i).max_speed_rad_s) / 2.0;
-        add(-tau, tau);
-      }
-      break;
-    }
-  }
+  const ActionBox box = action_box(m, config_);
+  action_low_ = box.low;
+  action_high_ = box.high;
   action_size_ = static_cast<int>(action_low_.size());
 
-  layout_.clear();
+  layout_ =
+      rl::observation_layout(config_.observation, action_size_, rotors, config_.gate_lookahead);
+  const auto has = [&](ObservationPiece piece) {
+    return std::find(config_.observation.begin(), config_.observation.end(), piece) !=
+           config_.observation.end();
+  };
+  observes_target_ =
+      has(ObservationPiece::kTargetRelative) || has(ObservationPiece::kTargetVelocity);
+  observes_rotor_speeds_ = has(ObservationPiece::kRotorSpeeds);
   observation_low_.clear();
   observation_high_.clear();
   int offset = 0;
-  for (const ObservationPiece p : config_.observation) {
-    const int size = piece_size(p, action_size_, rotors, config_.gate_lookahead);
-    layout_.push_back({p, offset, size});
-    offset += size;
-    for (int i = 0; i < size; ++i) {
+  for (const PieceSlice& slice : layout_) {
+    const ObservationPiece p = slice.piece;
+    offset += slice.size;
+    for (int i = 0; i < slice.size; ++i) {
       double lo = -kInf, hi = kInf;
       if (p == ObservationPiece::kRotation || p == ObservationPiece::kQuaternion) {
         lo = -1.0;
@@ -645,7 +595,8 @@ void VecEnv<T>::evaluate(int env) {
       w.angular * x.segment<3>(state_index::kAngularVelocity).norm(),
       is_crash(cause) ? w.crash : 0.0,
       w.gate * gates_now,
-      w.distance * d_now};
+      w.distance * d_now,
+      is_crash(cause) ? 0.0 : w.alive};
   double r = 0.0;
   const auto N = static_cast<std::size_t>(num_envs_);
   for (int k = 0; k < kNumRewardTerms; ++k) {
@@ -676,83 +627,41 @@ template <class T>
 template <class O>
 void VecEnv<T>::write_observation(int env, O* row) const {
   const auto e = static_cast<std::size_t>(env);
-  const Vec3 p = measured(env, state_index::kPosition);
-  const Vec3 v = measured(env, state_index::kVelocity);
+  ObservationInput in;
+  in.position_m = measured(env, state_index::kPosition);
+  in.velocity_m_s = measured(env, state_index::kVelocity);
+  in.body_rates_rad_s = measured(env, state_index::kAngularVelocity);
   const T* xs = batch_->measured_state_data();
   const auto s = static_cast<std::size_t>(batch_->stride());
-  Vec4 q;
-  for (int k = 0; k < 4; ++k)
-    q[k] = static_cast<double>(xs[static_cast<std::size_t>(state_index::kQuaternion + k) * s + e]);
-  const double t_s = static_cast<double>(length_[e]) * control_dt_s();
-  for (const PieceSlice& slice : layout_) {
-    O* out = row + slice.offset;
-    switch (slice.piece) {
-      case ObservationPiece::kPosition:
-        for (int k = 0; k < 3; ++k) out[k] = static_cast<O>(p[k]);
-        break;
-      case ObservationPiece::kVelocity:
-        for (int k = 0; k < 3; ++k) out[k] = static_cast<O>(v[k]);
-        break;
-      case ObservationPiece::kRotation: {
-        // B_I R = R^T: row i of it is column i of R.
-        const Mat3 R = math::rotation_matrix<double>(q / q.norm());
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) out[3 * i + j] = static_cast<O>(R(j, i));
-        break;
-      }
-      case ObservationPiece::kQuaternion:
-        for (int k = 0; k < 4; ++k) out[k] = static_cast<O>(q[k]);
-        break;
-      case ObservationPiece::kBodyRates: {
-        const Vec3 w = measured(env, state_index::kAngularVelocity);
-        for (int k = 0; k < 3; ++k) out[k] = static_cast<O>(w[k]);
-        break;
-      }
-      case ObservationPiece::kPreviousAction: {
-        const double* a = previous_action_.data() + e * static_cast<std::size_t>(action_size_);
-        for (int i = 0; i < action_size_; ++i) {
-          const auto u = static_cast<std::size_t>(i);
-          // As the policy gave it: normalised actions are reported normalised.
-          out[i] = static_cast<O>(
-              config_.normalized_actions
-                  ? 2.0 * (a[u] - action_low_[u]) / (action_high_[u] - action_low_[u]) - 1.0
-                  : a[u]);
-        }
-        break;
-      }
-      case ObservationPiece::kGateCorners: {
-        const Track& track = config_.track;
-        const int num_gates = static_cast<int>(track.gates.size());
-        for (int k = 0; k < config_.gate_lookahead; ++k) {
-          int g = next_gate_[e] + k;
-          g = track.closed ? g % num_gates : std::min(g, num_gates - 1);
-          const std::array<Vec3, 4> corners = track.gates[static_cast<std::size_t>(g)].corners();
-          for (int c = 0; c < 4; ++c)
-            for (int i = 0; i < 3; ++i)
-              out[12 * k + 3 * c + i] =
-                  static_cast<O>(corners[static_cast<std::size_t>(c)][i] - p[i]);
-        }
-        break;
-      }
-      case ObservationPiece::kRotorSpeeds: {
-        const RotorVector w = batch_->rotor_speeds(env);
-        for (int i = 0; i < model_->num_rotors(); ++i)
-          out[i] = static_cast<O>(w[i] / model_->rotor(i).max_speed_rad_s);
-        break;
-      }
-      case ObservationPiece::kTargetRelative: {
-        const Vec3 target = target_at(env, t_s, nullptr);
-        for (int k = 0; k < 3; ++k) out[k] = static_cast<O>(target[k] - p[k]);
-        break;
-      }
-      case ObservationPiece::kTargetVelocity: {
-        Vec3 vt;
-        target_at(env, t_s, &vt);
-        for (int k = 0; k < 3; ++k) out[k] = static_cast<O>(vt[k] - v[k]);
-        break;
-      }
-    }
+  for (int k = 0; k < 4; ++k) {
+    in.quaternion[k] =
+        static_cast<double>(xs[static_cast<std::size_t>(state_index::kQuaternion + k) * s + e]);
   }
+  // The previous action as the policy gave it: normalised actions are reported normalised.
+  std::array<double, kMaxActionSize> previous{};
+  const double* a = previous_action_.data() + e * static_cast<std::size_t>(action_size_);
+  for (int i = 0; i < action_size_; ++i) {
+    const auto u = static_cast<std::size_t>(i);
+    previous[u] = config_.normalized_actions
+                      ? 2.0 * (a[u] - action_low_[u]) / (action_high_[u] - action_low_[u]) - 1.0
+                      : a[u];
+  }
+  in.previous_action = previous.data();
+  std::array<double, kMaxRotors> rotor_fraction{};
+  if (observes_rotor_speeds_) {
+    const RotorVector w = batch_->rotor_speeds(env);
+    for (int i = 0; i < model_->num_rotors(); ++i)
+      rotor_fraction[static_cast<std::size_t>(i)] = w[i] / model_->rotor(i).max_speed_rad_s;
+  }
+  in.rotor_speed_fraction = rotor_fraction.data();
+  in.track = &config_.track;
+  in.next_gate = next_gate_[e];
+  in.gate_lookahead = config_.gate_lookahead;
+  if (observes_target_) {
+    const double t_s = static_cast<double>(length_[e]) * control_dt_s();
+    in.target_m = target_at(env, t_s, &in.target_velocity_m_s);
+  }
+  rl::write_observation(layout_, in, row);
 }
 
 template <class T>
@@ -804,8 +713,9 @@ void VecEnv<T>::set_config(const EnvConfig& c) {
   same(c.normalized_actions == config_.normalized_actions, "normalized_actions");
   same(c.observation_float32 == config_.observation_float32, "observation_float32");
   same(c.relative_scale_m == config_.relative_scale_m &&
-           c.max_body_rate_rad_s == config_.max_body_rate_rad_s,
-       "action bounds (relative_scale_m, max_body_rate_rad_s)");
+           c.max_body_rate_rad_s == config_.max_body_rate_rad_s &&
+           c.max_thrust_to_weight == config_.max_thrust_to_weight,
+       "action bounds (relative_scale_m, max_body_rate_rad_s, max_thrust_to_weight)");
   const Se3Gains &g = c.se3_gains, &h = config_.se3_gains;
   same(g.position_p == h.position_p && g.position_d == h.position_d &&
            g.attitude_p == h.attitude_p && g.attitude_d == h.attitude_d && g.mass_kg == h.mass_kg &&

@@ -311,6 +311,39 @@ TEST(VecEnvActions, NormalizedActionsMapOntoTheBox) {
   EXPECT_EQ(clipped.batch().state(0), edge.batch().state(0));
 }
 
+// max_thrust_to_weight narrows the thrust box to k m g: with k = 2 a normalised 0 is hover thrust
+// for the nominal mass, and the flight equals the physical action m g.
+TEST(VecEnvActions, ThrustToWeightBoxCentresHover) {
+  const std::string quiet =
+      ", hover: {start_offset_m: [0, 0, 0]}, randomization: {position_m: [0, 0, 0], "
+      "velocity_m_s: [0, 0, 0], attitude_rad: [0, 0, 0]}}";
+  auto norm = make_env("hover", 1,
+                       "{action: ctbr, normalized_actions: true, max_thrust_to_weight: 2" + quiet);
+  auto phys = make_env("hover", 1, "{action: ctbr, max_thrust_to_weight: 2" + quiet);
+  const double weight_N = norm.model().mass_kg() * 9.81;
+  EXPECT_DOUBLE_EQ(norm.action_high()[0], 2.0 * weight_N);
+  EXPECT_EQ(norm.action_low()[0], 0.0);
+  const double zero[4] = {0, 0, 0, 0}, hover[4] = {weight_N, 0, 0, 0};
+  for (int t = 0; t < 20; ++t) {
+    norm.step(zero);
+    phys.step(hover);
+  }
+  for (int k = 0; k < 13; ++k)
+    EXPECT_NEAR(norm.batch().state(0)[k], phys.batch().state(0)[k], 1e-12) << k;
+  // Larger than the rotors can give: the rotors' total is the bound.
+  auto wide = make_env("hover", 1, "{action: ctbr, max_thrust_to_weight: 1000}");
+  auto full = make_env("hover", 1, "{action: ctbr}");
+  EXPECT_EQ(wide.action_high()[0], full.action_high()[0]);
+  try {
+    (void)make_env("hover", 1, "{action: ctbr, max_thrust_to_weight: -1}");
+    ADD_FAILURE() << "no error";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("max_thrust_to_weight: expected a number >= 0"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(VecEnvRandomization, ParametersAreDrawnPerEnvWithinTheirRanges) {
   auto env = make_env("hover", 64,
                       "{randomization: {mass_scale: [0.8, 1.2], thrust_scale: [0.9, 1.1], "

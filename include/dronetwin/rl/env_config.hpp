@@ -76,11 +76,22 @@ struct RewardWeights {
   double crash = -5.0;         ///< r_crash, once, when the episode ends in a crash or flip
   double gate = 0.0;           ///< per gate passed (not in the thesis)
   double distance = 0.0;       ///< times d_t (a hover/tracking penalty; not in the thesis)
+  /// Per env step that does not end in a crash (not in the thesis): with a distance penalty, it
+  /// keeps an early crash from paying more than staying in the air.
+  double alive = 0.0;
 };
-enum class RewardTerm : std::uint8_t { kProgress, kActionRate, kAngular, kCrash, kGate, kDistance };
-inline constexpr int kNumRewardTerms = 6;
+enum class RewardTerm : std::uint8_t {
+  kProgress,
+  kActionRate,
+  kAngular,
+  kCrash,
+  kGate,
+  kDistance,
+  kAlive
+};
+inline constexpr int kNumRewardTerms = 7;
 inline constexpr std::array<std::string_view, kNumRewardTerms> kRewardTermNames = {
-    "progress", "action_rate", "angular", "crash", "gate", "distance"};
+    "progress", "action_rate", "angular", "crash", "gate", "distance", "alive"};
 
 /// A closed interval [lo, hi]; lo == hi is a constant.
 struct Interval {
@@ -121,6 +132,9 @@ struct EnvConfig {
   bool normalized_actions = false;
   Vec3 relative_scale_m = Vec3(1.0, 1.0, 1.5);  ///< thesis Sec. 4.4.1
   Vec3 max_body_rate_rad_s = Vec3(10.0, 10.0, 5.0);
+  /// Upper end of the thrust action (CTBR, generalized force) as a multiple of the nominal weight
+  /// m g; 0: every rotor at full speed. 2 centres a normalised action of 0 on hover.
+  double max_thrust_to_weight = 0.0;
   Se3Gains se3_gains;  ///< default: config/controllers/se3.yaml (set by the loader)
   Se3Options se3_options;
   BodyRateGains rate_gains;

@@ -44,15 +44,9 @@
 #include "dronetwin/core/single_thread.hpp"
 #include "dronetwin/rl/env_config.hpp"
 #include "dronetwin/rl/episode.hpp"
+#include "dronetwin/rl/observation.hpp"
 
 namespace dronetwin::rl {
-
-/// Where one observation piece sits in an observation row.
-struct PieceSlice {
-  ObservationPiece piece;
-  int offset = 0;
-  int size = 0;
-};
 
 template <class T>
 class VecEnv {
@@ -165,6 +159,8 @@ class VecEnv {
   double hover_thrust_N_ = 0.0;
   RotorVector hover_speeds_;
   std::vector<PieceSlice> layout_;
+  bool observes_target_ = false;        ///< the layout has a target piece
+  bool observes_rotor_speeds_ = false;  ///< the layout has kRotorSpeeds
   std::vector<double> action_low_, action_high_, observation_low_, observation_high_;
 
   std::unique_ptr<BatchSimulator<T>> batch_;
