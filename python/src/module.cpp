@@ -103,4 +103,5 @@ PYBIND11_MODULE(_core, m) {
   dp::bind_fit(m);
   dp::bind_batch(m);
   dp::bind_rl(m);
+  dp::bind_policy(m);
 }

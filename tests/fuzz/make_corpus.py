@@ -14,6 +14,10 @@ repository's files (docs/reliability.md, "Fuzzing"):
   ulog               a slice of the real PX4 log (definitions, and the attitude, position and ESC
                      messages of one second, enough for the import), a file with every message
                      kind, and the hostile files of tests/adapters/ulog_hostile_test.cpp
+  policy             small .dtpolicy files (docs/policy-format.md) written here with struct and
+                     json: each activation and output, a header as json.dumps(indent=1) writes
+                     it and a compact one, and broken ones (cut, trailing byte, NaN weight,
+                     zero std, oversized header length, widths far beyond the bytes present)
 
 Inputs the fuzzers found stay next to the seeds as finding_* files; this script replaces only
 seed_* files. It runs the dronetwin command for the logs and sidecars:
@@ -23,6 +27,8 @@ seed_* files. It runs the dronetwin command for the logs and sidecars:
 
 import argparse
 import glob
+import json
+import math
 import os
 import struct
 import subprocess
@@ -158,6 +164,77 @@ def hostile_ulogs():
     }
 
 
+# ---- policy files ------------------------------------------------------------------------------
+
+def policy_file(widths, activation, output, *, indent=None, env=None, seed=0, version=1,
+                header_length=None, tensors_edit=None, max_values=None):
+    """A .dtpolicy file of a network with these widths and deterministic small weights (only the
+    first max_values numbers of the tensors, when given: a file cut short)."""
+    obs = widths[0]
+    tensors = [("observation_mean", [obs]), ("observation_std", [obs])]
+    for k in range(len(widths) - 1):
+        tensors += [(f"layers.{k}.weight", [widths[k + 1], widths[k]]),
+                    (f"layers.{k}.bias", [widths[k + 1]])]
+    header = {
+        "format": "dronetwin.policy",
+        "format_version": 1,
+        "observation": [{"name": "target_relative", "size": obs}],
+        "observation_size": obs,
+        "action_size": widths[-1],
+        "action_mode": "ctbr",
+        "normalized_actions": True,
+        "network": {"layers": widths, "activation": activation, "negative_slope": 0.2,
+                    "output": output, "action_scale": [1.0] * widths[-1], "observation_clip": 5.0},
+        "tensors": [{"name": n, "shape": s} for n, s in tensors],
+        "env": env if env is not None else {"config": "config/rl/hover.yaml", "task": "hover"},
+        "training": {"env_steps": 1000, "seed": seed},
+    }
+    text = json.dumps(header, indent=indent).encode()
+    values = []
+    for name, shape in tensors:
+        n = 1
+        for d in shape:
+            n *= d
+        if max_values is not None:
+            n = min(n, max_values - len(values))
+        for i in range(n):
+            if name == "observation_std":
+                values.append(0.5 + 0.25 * ((i + seed) % 3))
+            else:
+                values.append(((i * 7 + seed * 3) % 11 - 5) / 8.0)
+    body = bytearray(struct.pack(f"<{len(values)}f", *values))
+    if tensors_edit:
+        tensors_edit(body)
+    length = len(text) if header_length is None else header_length
+    return b"DTPOLICY" + struct.pack("<II", version, length) + text + bytes(body)
+
+
+def policy_seeds():
+    """{name: bytes} of the policy harness's seeds."""
+    def nan_at(i):
+        return lambda body: body.__setitem__(slice(4 * i, 4 * i + 4), struct.pack("<f", math.nan))
+
+    def zero_std(body):
+        body[4 * 3:4 * 3 + 4] = struct.pack("<f", 0.0)
+
+    good = policy_file([3, 4, 2], "leaky_relu", "tanh", indent=1)
+    huge = policy_file([3, 65536, 65536, 2], "relu", "identity", max_values=64)
+    return {
+        "leaky_relu_tanh.dtpolicy": good,
+        "relu_identity_compact.dtpolicy": policy_file([2, 3, 3, 1], "relu", "identity", seed=1),
+        "tanh_tanh_nested_env.dtpolicy": policy_file(
+            [4, 2, 4], "tanh", "tanh", seed=2,
+            env={"config": "x.yaml", "list": [1, 2.5e-3, True, None, "\u00e9"], "o": {}}),
+        "bad_truncated.dtpolicy": good[:-3],
+        "bad_trailing_byte.dtpolicy": good + b"\0",
+        "bad_nan_weight.dtpolicy": policy_file([3, 4, 2], "tanh", "tanh", tensors_edit=nan_at(9)),
+        "bad_zero_std.dtpolicy": policy_file([3, 4, 2], "tanh", "tanh", tensors_edit=zero_std),
+        "bad_version.dtpolicy": policy_file([2, 1], "tanh", "tanh", version=2),
+        "bad_header_length.dtpolicy": policy_file([2, 1], "tanh", "tanh", header_length=1 << 21),
+        "bad_widths_beyond_the_file.dtpolicy": huge,
+    }
+
+
 # ---- logs and sidecars from the dronetwin command ----------------------------------------------
 
 def cli_outputs(cli):
@@ -221,6 +298,10 @@ def main():
     for name, data in generated.items():
         if name.endswith(".json"):
             put("log_metadata", name, data)
+
+    reset("policy")
+    for name, data in policy_seeds().items():
+        put("policy", name, data)
 
     reset("ulog")
     put("ulog", "real_slice.ulg", real_ulog_slice())

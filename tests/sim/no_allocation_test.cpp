@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
+#include <memory>
 #include <new>
 #include <vector>
 
@@ -12,6 +14,7 @@
 #include "dronetwin/batch/batch_pid.hpp"
 #include "dronetwin/batch/batch_se3.hpp"
 #include "dronetwin/batch/batch_simulator.hpp"
+#include "dronetwin/policy/mlp.hpp"
 #include "dronetwin/sim/simulator.hpp"
 #include "test_support.hpp"
 
@@ -111,6 +114,42 @@ TEST(NoAllocation, BatchNoiseAndInnerLoopsDoNotAllocate) {
     batch.set_seed(k % 50, static_cast<std::uint64_t>(k));
   }
   EXPECT_EQ(g_allocations.load(), before);
+}
+
+// A policy evaluation (policy/mlp.hpp): the workspace is allocated once, by the evaluator's
+// constructor; evaluating one observation or a batch of rows allocates nothing, in either
+// precision. (The evaluator computes with plain loops over that workspace, no Eigen expression
+// that could allocate through malloc, which this counter would not see.)
+TEST(NoAllocation, PolicyEvaluationDoesNotAllocate) {
+  Mlp m;
+  const int widths[] = {64, 256, 256, 4};
+  m.observation_mean = Eigen::VectorXd::Constant(widths[0], 0.1);
+  m.observation_std = Eigen::VectorXd::Constant(widths[0], 2.0);
+  for (int k = 0; k < 3; ++k) {
+    Eigen::MatrixXd w(widths[k + 1], widths[k]);
+    for (Eigen::Index i = 0; i < w.size(); ++i)
+      w.data()[i] = 0.01 * static_cast<double>(i % 13) - 0.06;
+    m.weights.push_back(w);
+    m.biases.push_back(Eigen::VectorXd::Constant(widths[k + 1], 0.01));
+  }
+  m.action_scale = Eigen::VectorXd::Ones(widths[3]);
+  for (const auto activation :
+       {Mlp::Activation::kLeakyRelu, Mlp::Activation::kRelu, Mlp::Activation::kTanh}) {
+    m.activation = activation;
+    MlpEvaluator policy(std::make_shared<const Mlp>(m));
+    std::vector<double> obs(static_cast<std::size_t>(8 * widths[0]), 0.5), action(8 * 4);
+    std::vector<float> obs_f(obs.begin(), obs.end()), action_f(action.size());
+    const long before = g_allocations.load();
+    for (int k = 0; k < 20; ++k) {
+      obs[static_cast<std::size_t>(k % 64)] += 0.01;
+      policy.evaluate(obs.data(), action.data());
+      policy.evaluate(obs_f.data(), action_f.data());
+      policy.evaluate_rows(obs.data(), 8, action.data());
+      policy.evaluate_rows(obs_f.data(), 8, action.data());
+    }
+    EXPECT_EQ(g_allocations.load(), before);
+    EXPECT_TRUE(std::isfinite(action[0]));
+  }
 }
 
 }  // namespace
