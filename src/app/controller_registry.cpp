@@ -9,6 +9,7 @@
 #include "dronetwin/control/se3.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/nmpc/nmpc.hpp"
+#include "dronetwin/policy/policy_controller.hpp"
 
 namespace dronetwin {
 namespace {
@@ -43,6 +44,22 @@ std::unique_ptr<ControllerBase> make_controller(const ControllerConfig& config,
             g.mass_kg = mass;
             g.gravity_m_s2 = config.gravity_m_s2;
             return std::make_unique<Se3Controller>(model, g, se3.options, config.allocation);
+          },
+          [&](const PolicySettings& policy) -> std::unique_ptr<ControllerBase> {
+            // The env's inner loop runs at every physics step and the policy at the env's rate:
+            // the controller is called at a whole multiple of the latter (the physics rate).
+            const double ratio = control_rate_hz / policy.env.control_rate_hz;
+            require(ratio >= 1.0 - 1e-9 && std::abs(ratio - std::round(ratio)) < 1e-9 * ratio,
+                    config.source, ": control_rate_hz: a policy trained at ",
+                    policy.env.control_rate_hz,
+                    " Hz flies with its inner loop at the physics rate; expected a whole multiple "
+                    "of it (the physics rate, 1 / physics_dt_s), got ",
+                    control_rate_hz);
+            try {
+              return std::make_unique<PolicyController>(model, policy.policy, policy.env);
+            } catch (const InvalidArgument& err) {
+              throw InvalidArgument(config.source + ": " + err.what());
+            }
           },
           [&](const NmpcSettings& nmpc) -> std::unique_ptr<ControllerBase> {
             NmpcOptions o = nmpc.options;

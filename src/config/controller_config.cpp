@@ -10,8 +10,11 @@
 #include <string_view>
 #include <utility>
 
+#include "dronetwin/config/env_config_loader.hpp"
+#include "dronetwin/config/policy_io.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/logging/text_file.hpp"
+#include "experiment_parts.hpp"
 #include "yaml_strict.hpp"
 
 namespace dronetwin {
@@ -65,10 +68,13 @@ double tilt(const Reader& rd, const YAML::Node& node, const std::string& path) {
 
 // ---- key tables -------------------------------------------------------------------------------
 
-constexpr std::array<std::string_view, 3> kTypes = {"pid", "se3", "nmpc"};
-constexpr std::array<std::string_view, 12> kTopKeys = {
-    "type",   "description", "allocation", "mass_kg", "gravity_m_s2", "gains",
-    "limits", "options",     "horizon",    "weights", "solver",       "disturbance"};
+constexpr std::array<std::string_view, 4> kTypes = {"pid", "se3", "nmpc", "policy"};
+constexpr std::array<std::string_view, 16> kTopKeys = {
+    "type",   "description", "allocation",    "mass_kg", "gravity_m_s2", "gains",
+    "limits", "options",     "horizon",       "weights", "solver",       "disturbance",
+    "policy", "env",         "env_overrides", "training"};
+constexpr std::array<std::string_view, 4> kPolicyOnlyKeys = {"policy", "env", "env_overrides",
+                                                             "training"};
 constexpr std::array<std::string_view, 2> kAllocations = {"exact", "thesis"};
 
 constexpr std::array<std::string_view, 6> kPidGainKeys = {"outer_p", "outer_d",  "outer_i",
@@ -280,6 +286,71 @@ void read_nmpc(const Reader& rd, const Map& top, NmpcSettings& c) {
   }
 }
 
+// `type: policy`: the policy file and the env it was trained in, read and matched now so that a
+// mismatch is named with this file.
+void read_policy_settings(const Reader& rd, const Map& top, PolicySettings& p) {
+  for (const std::string_view key : {"gains", "limits", "options", "allocation", "mass_kg"})
+    if (top.has(key)) rd.fail(top.get(key), std::string(key), "not used by type policy");
+  p.policy_path =
+      io_detail::find_named_file(rd, top.required("policy"), "policy", "policy (.dtpolicy)");
+  // An environment file names a controller file (se3_controller) and this one names an
+  // environment: a loop of such files would recurse without end.
+  thread_local int depth = 0;
+  if (depth >= 4) rd.fail("policy", "controller and environment files name each other in a loop");
+  ++depth;
+  struct Leave {
+    ~Leave() { --depth; }
+  } leave;
+  // The env: a training file's `env` and `env_overrides` (the rest of it is the trainer's), or
+  // the same two keys here.
+  if (top.has("training") == top.has("env")) {
+    rd.fail(top.has("env") ? "env" : "training",
+            "expected either training (the policy's training file) or env (its environment "
+            "file), not both and not neither");
+  }
+  const std::string where = top.has("training") ? "training" : "env";
+  YAML::Node overrides_node;
+  if (top.has("training")) {
+    const std::string training =
+        io_detail::find_named_file(rd, top.get("training"), "training", "training");
+    const Reader trd(training);
+    YAML::Node t;
+    try {
+      t = trd.parse(read_text_file(training, "training file"), "a map of training settings");
+    } catch (const InvalidArgument& e) {
+      rd.fail(top.get("training"), "training", std::string("bad training file: ") + e.what());
+    }
+    if (!t.IsMap() || !t["env"])
+      rd.fail(top.get("training"), "training", "the training file " + training + " has no env");
+    overrides_node = t["env_overrides"];
+    p.env_path = io_detail::find_named_file(trd, t["env"], "env", "environment");
+  } else {
+    if (top.has("env_overrides")) overrides_node = top.get("env_overrides");
+    p.env_path = io_detail::find_named_file(rd, top.get("env"), "env", "environment");
+  }
+  std::string overrides;
+  if (overrides_node && !overrides_node.IsNull()) {
+    if (!overrides_node.IsMap())
+      rd.fail(overrides_node, "env_overrides",
+              "expected a map of environment keys, got " + io_detail::describe(overrides_node));
+    YAML::Emitter out;
+    out << YAML::Flow << overrides_node;
+    overrides = out.c_str();
+  }
+  EnvFile env;
+  try {
+    env = load_env_config(p.env_path, overrides);
+  } catch (const InvalidArgument& e) {
+    rd.fail(top.get(where), where, std::string("bad environment file: ") + e.what());
+  }
+  p.env = env.config;
+  try {
+    p.policy = std::make_shared<const PolicyFile>(read_policy(p.policy_path));
+  } catch (const InvalidArgument& e) {
+    rd.fail(top.get("policy"), "policy", std::string("bad policy file: ") + e.what());
+  }
+}
+
 }  // namespace
 
 ControllerConfig parse_controller_config(const std::string& yaml_text,
@@ -293,6 +364,9 @@ ControllerConfig parse_controller_config(const std::string& yaml_text,
   if (type != 2)
     for (const std::string_view key : kNmpcOnlyKeys)
       if (top.has(key)) rd.fail(top.get(key), std::string(key), "only for type nmpc");
+  if (type != 3)
+    for (const std::string_view key : kPolicyOnlyKeys)
+      if (top.has(key)) rd.fail(top.get(key), std::string(key), "only for type policy");
   if (top.has("description")) c.description = rd.string(top.get("description"), "description");
   if (top.has("allocation"))
     c.allocation = choice(rd, top.get("allocation"), "allocation", kAllocations) == 0
@@ -305,8 +379,10 @@ ControllerConfig parse_controller_config(const std::string& yaml_text,
     read_pid(rd, top, c.settings.emplace<PidSettings>());
   } else if (type == 1) {
     read_se3(rd, top, c.settings.emplace<Se3Settings>());
-  } else {
+  } else if (type == 2) {
     read_nmpc(rd, top, c.settings.emplace<NmpcSettings>());
+  } else {
+    read_policy_settings(rd, top, c.settings.emplace<PolicySettings>());
   }
   return c;
 }

@@ -209,7 +209,7 @@ TEST(ControllerConfig, ExactMessagesForTheCommonMistakes) {
             path + ": gains.outer_p: expected 4 numbers [x, y, z, psi], got 3 (line 4)");
   const std::string type_path = kBadDir + "/unknown_type.yaml";
   EXPECT_EQ(error_of([&] { load_controller_config(type_path); }),
-            type_path + ": type: expected one of pid, se3, nmpc, got 'pdi' (line 2)");
+            type_path + ": type: expected one of pid, se3, nmpc, policy, got 'pdi' (line 2)");
 }
 
 TEST(ControllerConfig, MissingFileAndBadRateAreRejected) {
@@ -267,12 +267,18 @@ const std::vector<BadCase> kBadCases = {
     {"outer_p_three_numbers.yaml", "gains.outer_p: expected 4 numbers [x, y, z, psi], got 3"},
     {"pid_limit_in_se3.yaml",
      "limits: unknown key 'integral_limit' (valid keys: max_tilt_rad, min_thrust_N)"},
+    {"policy_env_and_training.yaml",
+     "env: expected either training (the policy's training file) or env (its environment file)"},
+    {"policy_gains_given.yaml", "gains: not used by type policy"},
+    {"policy_key_in_se3.yaml", "policy: only for type policy"},
+    {"policy_missing_file.yaml", "policy: policy (.dtpolicy) file"},
+    {"policy_wrong_action_mode.yaml", "action_mode: the policy was trained with"},
     {"position_p_four_numbers.yaml", "gains.position_p: expected 3 numbers [x, y, z], got 4"},
     {"quoted_number.yaml", "gains.outer_p[1]: expected a number, got the string \"0.471\""},
     {"tilt_in_degrees.yaml", "limits.max_tilt_rad: expected an angle in (0, pi/2) rad, got 30"},
     {"two_documents.yaml", "expected one YAML document, got 2"},
     {"unknown_allocation.yaml", "allocation: expected one of exact, thesis, got 'pseudo_inverse'"},
-    {"unknown_type.yaml", "type: expected one of pid, se3, nmpc, got 'pdi'"},
+    {"unknown_type.yaml", "type: expected one of pid, se3, nmpc, policy, got 'pdi'"},
     {"unknown_yaw_loop.yaml", "options.yaw_loop: expected one of thesis, rate, got 'angle'"},
     {"yaml_syntax_error.yaml", "YAML syntax error"},
     {"yes_is_not_a_bool.yaml", "options.yaw_error_wrap: expected true or false, got 'yes'"},
@@ -309,7 +315,7 @@ TEST(BadControllerCorpus, CorpusIsFullyCovered) {
   std::set<std::string> covered;
   for (const BadCase& c : kBadCases) covered.insert(c.file);
   EXPECT_EQ(files, covered);
-  EXPECT_EQ(files.size(), 29u);
+  EXPECT_EQ(files.size(), 34u);
 }
 
 TEST(ControllerConfig, TheFuzzersHangingInputIsRefusedAsNotUtf8) {

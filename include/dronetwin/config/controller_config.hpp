@@ -15,6 +15,7 @@
 // The settings of each controller type are one alternative of a variant (like ExperimentInput);
 // building the controller object from them is app/controller_registry.hpp.
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -24,6 +25,8 @@
 #include "dronetwin/control/se3.hpp"
 #include "dronetwin/model/allocation.hpp"
 #include "dronetwin/nmpc/nmpc.hpp"
+#include "dronetwin/policy/policy.hpp"
+#include "dronetwin/rl/env_config.hpp"
 
 namespace dronetwin {
 
@@ -48,8 +51,17 @@ struct Se3Settings {
 struct NmpcSettings {
   NmpcOptions options;
 };
+/// `type: policy`: a trained policy (.dtpolicy, docs/policy-format.md) flown with the conventions
+/// of the RL environment it was trained in (policy/policy_controller.hpp). Both files are read
+/// and checked against each other when the controller file is read.
+struct PolicySettings {
+  std::string policy_path;  ///< the .dtpolicy file, resolved
+  std::string env_path;     ///< the environment file, resolved
+  std::shared_ptr<const PolicyFile> policy;
+  rl::EnvConfig env;  ///< the environment file with the controller file's env_overrides
+};
 /// One alternative per controller type, in ControllerType order.
-using ControllerSettings = std::variant<PidSettings, Se3Settings, NmpcSettings>;
+using ControllerSettings = std::variant<PidSettings, Se3Settings, NmpcSettings, PolicySettings>;
 
 /// A parsed controller file.
 struct ControllerConfig {
