@@ -197,13 +197,37 @@ int info_command(const std::string& path) {
   return kExitOk;
 }
 
-// `dronetwin plot DIR`: runs the plotting script python/dronetwin/plot.py with Debian's
-// interpreter. DRONETWIN_PYTHON overrides the interpreter, DRONETWIN_PYTHONPATH the directory that
-// holds dronetwin/plot.py. The script is run as a file, not as `-m dronetwin.plot`, so plotting
-// needs only numpy and matplotlib, not the compiled extension the package imports.
-int plot_command(const std::string& run_dir, const std::string& out_dir) {
+// Runs /usr/bin/python3 (DRONETWIN_PYTHON overrides it) with `args` and `module_dir` first on
+// PYTHONPATH; returns its exit status.
+int run_python(const std::string& what, std::vector<std::string> args,
+               const std::string& module_dir) {
   const char* env_python = std::getenv("DRONETWIN_PYTHON");
   const std::string python = env_python ? env_python : "/usr/bin/python3";
+  args.insert(args.begin(), python);
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const pid_t pid = fork();
+  if (pid < 0) throw std::runtime_error(what + ": fork failed");
+  if (pid == 0) {
+    const char* old = std::getenv("PYTHONPATH");
+    const std::string path = old && *old ? module_dir + ":" + old : module_dir;
+    setenv("PYTHONPATH", path.c_str(), 1);
+    execv(python.c_str(), argv.data());
+    std::fprintf(stderr, "error: %s: cannot run %s (set DRONETWIN_PYTHON)\n", what.c_str(),
+                 python.c_str());
+    _exit(kExitBadInput);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : kExitInternal;
+}
+
+// `dronetwin plot DIR`: runs the plotting script python/dronetwin/plot.py with Debian's
+// interpreter. DRONETWIN_PYTHONPATH overrides the directory that holds dronetwin/plot.py. The
+// script is run as a file, not as `-m dronetwin.plot`, so plotting needs only numpy and
+// matplotlib, not the compiled extension the package imports.
+int plot_command(const std::string& run_dir, const std::string& out_dir) {
   std::string module_dir;
   if (const char* p = std::getenv("DRONETWIN_PYTHONPATH")) {
     module_dir = p;
@@ -212,27 +236,28 @@ int plot_command(const std::string& run_dir, const std::string& out_dir) {
   } else {
     module_dir = DRONETWIN_PYTHON_INSTALL_DIR;
   }
-  std::vector<std::string> args{python, module_dir + "/dronetwin/plot.py", run_dir};
+  std::vector<std::string> args{module_dir + "/dronetwin/plot.py", run_dir};
   if (!out_dir.empty()) {
     args.emplace_back("--out");
     args.push_back(out_dir);
   }
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  const pid_t pid = fork();
-  if (pid < 0) throw std::runtime_error("plot: fork failed");
-  if (pid == 0) {
-    const char* old = std::getenv("PYTHONPATH");
-    const std::string path = old && *old ? module_dir + ":" + old : module_dir;
-    setenv("PYTHONPATH", path.c_str(), 1);
-    execv(python.c_str(), argv.data());
-    std::fprintf(stderr, "error: plot: cannot run %s (set DRONETWIN_PYTHON)\n", python.c_str());
-    _exit(kExitBadInput);
+  return run_python("plot", args, module_dir);
+}
+
+// `dronetwin train ...` and `dronetwin evaluate ...`: the trainer is Python (torch), so these run
+// `python3 -m dronetwin.train <command> ...` with every argument passed on. The package must hold
+// the compiled extension: the build tree's (DRONETWIN_PYTHON_BUILD_DIR) when it has one, else the
+// installed package (on Debian's sys.path); DRONETWIN_PYTHONPATH overrides both.
+int training_command(const std::string& command, const std::vector<std::string>& rest) {
+  std::string module_dir;
+  if (const char* p = std::getenv("DRONETWIN_PYTHONPATH")) {
+    module_dir = p;
+  } else if (std::filesystem::exists(DRONETWIN_PYTHON_BUILD_DIR "/dronetwin/train.py")) {
+    module_dir = DRONETWIN_PYTHON_BUILD_DIR;
   }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : kExitInternal;
+  std::vector<std::string> args{"-m", "dronetwin.train", command};
+  args.insert(args.end(), rest.begin(), rest.end());
+  return run_python(command, args, module_dir);
 }
 
 }  // namespace
@@ -270,6 +295,14 @@ int main(int argc, char** argv) {
       ->required();
   plot_cmd->add_option("--out,-o", plot_out, "Where to write the PNGs (default: run_dir)");
 
+  // Everything after `train` / `evaluate` goes to the Python trainer (its --help included).
+  CLI::App* train_cmd = app.add_subcommand(
+      "train", "Train a policy with PPO: train CONFIG --out DIR [--resume] (see train --help)");
+  train_cmd->prefix_command()->set_help_flag();
+  CLI::App* evaluate_cmd = app.add_subcommand(
+      "evaluate", "Evaluate a policy file: evaluate POLICY --config CONFIG [--episodes N]");
+  evaluate_cmd->prefix_command()->set_help_flag();
+
   dronetwin::cli::RealDataCommands real_data;
   dronetwin::cli::register_real_data_commands(app, real_data);
   dronetwin::cli::FitCommand fit;
@@ -279,9 +312,9 @@ int main(int argc, char** argv) {
   if (argc > 1 && argv[1][0] != '-') {
     const std::string_view command = argv[1];
     if (command != "run" && command != "info" && command != "plot" && command != "import" &&
-        command != "identify" && command != "fit") {
+        command != "identify" && command != "fit" && command != "train" && command != "evaluate") {
       std::cerr << "error: unknown command '" << command
-                << "' (valid commands: run, info, plot, import, identify, fit)\n"
+                << "' (valid commands: run, info, plot, import, identify, fit, train, evaluate)\n"
                 << "Run with --help for more information.\n";
       return kExitBadInput;
     }
@@ -300,6 +333,8 @@ int main(int argc, char** argv) {
       return run_command(run);
     }
     if (*plot_cmd) return plot_command(plot_dir, plot_out);
+    if (*train_cmd) return training_command("train", train_cmd->remaining());
+    if (*evaluate_cmd) return training_command("evaluate", evaluate_cmd->remaining());
     if (*fit.cmd) return dronetwin::cli::run_fit_command(fit);
     if (dronetwin::cli::real_data_command_selected(real_data)) {
       return dronetwin::cli::run_real_data_command(real_data);

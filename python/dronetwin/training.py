@@ -1,0 +1,189 @@
+"""Training configurations and policy evaluation, without torch (docs/rl.md).
+
+``load_config`` reads ``config/training/*.yaml`` (the defaults below filled in), ``make_env`` makes
+its VectorEnv, and ``evaluate`` flies any deterministic policy (a function obs -> action: the C++
+evaluator of a ``.dtpolicy`` file, or the trainer's torch network) over randomised episodes. The
+trainer itself is ``dronetwin.ppo``.
+"""
+
+from __future__ import annotations
+
+import copy as _copy
+import os as _os
+
+import numpy as _np
+
+from . import policy as _policy
+from . import rl as _rl
+
+# ---- configuration ---------------------------------------------------------------------------
+
+DEFAULTS = {
+    "description": "",
+    "env": None,                 # environment file (relative to the training file) or task name
+    "env_overrides": {},         # merged over the environment file (rl.make keywords)
+    "num_envs": 256,
+    "num_threads": 2,            # env stepping and torch
+    "dtype": "float32",          # the physics' scalar
+    "seed": 0,
+    "total_env_steps": 1_000_000,
+    "rollout_steps": 64,         # per env and update
+    "ppo": {
+        "gamma": 0.99,
+        "gae_lambda": 0.95,
+        "clip": 0.2,
+        "epochs": 5,
+        "minibatches": 4,
+        "learning_rate": 3e-4,     # the policy's (Table 4.1: 3e-5)
+        "critic_learning_rate": None,  # None: learning_rate (Table 4.1: 1e-4)
+        "anneal_learning_rate": True,
+        "entropy_coef": 0.0,
+        "value_coef": 0.5,
+        "smooth_l1_beta": 1.0,
+        "max_grad_norm": 1.0,
+        "target_kl": 0.02,
+        "normalize_advantages": True,
+        "normalize_rewards": True,
+    },
+    "policy": {
+        "hidden": [256, 256],      # thesis Sec. 4.4: 2 x 256
+        "critic_hidden": None,     # None: as hidden
+        "activation": "leaky_relu",
+        "negative_slope": 0.2,     # LeakyReLU(0.2)
+        "action_scale": None,      # None: 1 per action dimension; racing: [1, 1, 1.5]
+        "init_log_std": -0.5,
+        "observation_clip": 10.0,
+    },
+    "evaluation": {
+        "every_updates": 0,        # 0: only at the end
+        "episodes": 32,
+        "seed": 1_000_000,         # evaluation episodes never share training's streams
+        "overrides": {},
+    },
+    "checkpoint_every_updates": 50,
+}
+
+_PPO_KEYS = set(DEFAULTS["ppo"])
+_POLICY_KEYS = set(DEFAULTS["policy"])
+_EVAL_KEYS = set(DEFAULTS["evaluation"])
+
+
+def _merge_checked(base, over, where):
+    out = _copy.deepcopy(base)
+    for k, v in over.items():
+        if k not in base:
+            raise ValueError(f"{where}: unknown key '{k}' (valid: {', '.join(sorted(base))})")
+        if isinstance(base[k], dict) and not isinstance(v, dict):
+            raise ValueError(f"{where}.{k}: expected a mapping, got {type(v).__name__}")
+        if k in ("env_overrides", "overrides"):
+            out[k] = _rl._merge(base[k], v)  # environment keys: checked by the env, merged as rl.make does
+        elif isinstance(base[k], dict):
+            out[k] = _merge_checked(base[k], v, f"{where}.{k}")
+        else:
+            out[k] = v
+    return out
+
+
+def _positive_int(c, key, where):
+    v = c[key]
+    if not isinstance(v, int) or isinstance(v, bool) or v < 1:
+        raise ValueError(f"{where}: {key}: expected an integer >= 1, got {v!r}")
+
+
+def load_config(path=None, overrides=None):
+    """The training configuration of a YAML file (``config/training/*.yaml``) with the defaults
+    filled in and ``overrides`` (a nested dict) merged on top. Paths stay relative to the file."""
+    import yaml  # python3-yaml comes with matplotlib's dependencies; only the trainer needs it
+
+    text = {}
+    where = "training config"
+    if path is not None:
+        where = _os.fspath(path)
+        with open(path, encoding="utf-8") as f:
+            text = yaml.safe_load(f) or {}
+        if not isinstance(text, dict):
+            raise ValueError(f"{where}: expected a mapping of training settings, got {type(text).__name__}")
+    c = _merge_checked(DEFAULTS, text, where)
+    if overrides:
+        c = _merge_checked(c, overrides, where + " (overrides)")
+    for key in ("num_envs", "num_threads", "total_env_steps", "rollout_steps"):
+        _positive_int(c, key, where)
+    for key in ("epochs", "minibatches"):
+        _positive_int(c["ppo"], key, where + ": ppo")
+    if c["env"] is None:
+        raise ValueError(f"{where}: env: expected an environment file or a task name, got nothing")
+    if (c["num_envs"] * c["rollout_steps"]) % c["ppo"]["minibatches"]:
+        raise ValueError(f"{where}: ppo.minibatches: {c['ppo']['minibatches']} does not divide the "
+                         f"{c['num_envs'] * c['rollout_steps']} samples of an update (num_envs x rollout_steps)")
+    if c["policy"]["activation"] not in _policy.ACTIVATIONS:
+        raise ValueError(f"{where}: policy.activation: expected one of {_policy.ACTIVATIONS}, "
+                         f"got {c['policy']['activation']!r}")
+    env = c["env"]
+    if path is not None and env not in _rl.TASKS and not _os.path.isabs(env):
+        env = _os.path.normpath(_os.path.join(_os.path.dirname(_os.path.abspath(path)), env))
+    c["env_path"] = _rl.config_path(env)
+    return c
+
+
+def make_env(c, num_envs=None, overrides=None):
+    """The training (or, with ``overrides``, evaluation) VectorEnv of a configuration."""
+    ov = _rl._merge(dict(c["env_overrides"]), dict(overrides or {}))
+    return _rl.VectorEnv(c["env_path"], ov, num_envs or c["num_envs"], c["num_threads"], c["dtype"], copy=False)
+
+
+# ---- evaluation ------------------------------------------------------------------------------
+
+def evaluate(act, config, episodes=100, seed=1_000_000, overrides=None, hold_s=2.0, hold_radius_m=0.05):
+    """Flies ``act`` (obs -> action, deterministic) for ``episodes`` episodes, one per env, with
+    the evaluation seed (env i draws from stream (seed, i)). Returns per-episode arrays and the
+    task's success fraction: hover, the distance to the target stays below ``hold_radius_m`` for
+    the last ``hold_s`` of an episode that reached its time limit; racing, the laps were all
+    flown (the episode ended "finished")."""
+    c = config
+    env = make_env(c, num_envs=episodes, overrides=overrides)
+    obs, _ = env.reset(seed=int(seed))
+    n = episodes
+    first = _np.zeros(n, dtype=bool)  # env i's first episode is over
+    result = {k: _np.full(n, _np.nan) for k in ("return", "length", "gates", "laps", "best_lap_s")}
+    cause = _np.full(n, -1)
+    target = env.observation_layout.get("target_relative")
+    hold_steps = max(1, int(round(hold_s / env.dt)))
+    ring = _np.full((hold_steps, n), _np.inf)  # distances after the last hold_steps steps
+    result["hold_max_m"] = _np.full(n, _np.nan)
+    steps = 0
+    while not first.all():
+        obs, reward, terminated, truncated, info = env.step(act(obs))
+        done = _np.asarray(info.get("_episode", _np.zeros(n, dtype=bool)))
+        if target is not None:
+            seen = _np.asarray(info["final_observation"]) if done.any() else _np.asarray(obs)
+            seen = _np.where(done[:, None], seen, _np.asarray(obs))
+            ring[steps % hold_steps] = _np.linalg.norm(seen[:, target], axis=1)
+        steps += 1
+        newly = done & ~first
+        if newly.any():
+            for key in ("return", "length", "gates", "laps", "best_lap_s"):
+                result[key][newly] = _np.asarray(info["episode"][key])[newly]
+            cause[newly] = _np.asarray(info["episode"]["cause"])[newly]
+            result["hold_max_m"][newly] = ring.max(axis=0)[newly]
+            first |= newly
+        if steps > 10_000_000:  # pragma: no cover - a time limit always ends an episode
+            raise RuntimeError("evaluate: episodes did not end")
+    names = [_rl.END_CAUSES[int(k)] for k in cause]
+    out = {"episodes": n, "seed": int(seed), "cause": names,
+           **{k: v.tolist() for k, v in result.items()},
+           "return_mean": float(_np.mean(result["return"])),
+           "crash_fraction": float(_np.mean([k not in ("time_limit", "finished") for k in names]))}
+    if env.task == "hover":
+        ok = _np.array([k == "time_limit" for k in names]) & (result["hold_max_m"] < hold_radius_m)
+        out["success_fraction"] = float(ok.mean())
+        out["hold_radius_m"] = hold_radius_m
+        out["hold_s"] = hold_s
+    elif env.task == "racing":
+        out["success_fraction"] = float(_np.mean([k == "finished" for k in names]))
+        laps = result["best_lap_s"][_np.isfinite(result["best_lap_s"])]
+        out["best_lap_s_mean"] = float(laps.mean()) if laps.size else None
+    else:
+        out["success_fraction"] = float(_np.mean([k == "time_limit" for k in names]))
+    return out
+
+
