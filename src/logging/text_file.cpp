@@ -14,6 +14,10 @@ std::string read_text_file(const std::string& path, const std::string& what) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw InvalidArgument(path + ": cannot read " + what + ": it is a directory");
+  // A device or a pipe (/dev/zero, a FIFO) never ends or never arrives: refused, not read.
+  const std::filesystem::file_status status = std::filesystem::status(path, ec);
+  if (!ec && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+    throw InvalidArgument(path + ": cannot read " + what + ": not a regular file");
   errno = 0;
   std::ifstream in(path, std::ios::binary);
   if (!in) {

@@ -39,6 +39,10 @@ TEST(TextFile, AMissingFileSaysWhyAndADirectoryIsNamed) {
   const std::string dir = std::filesystem::temp_directory_path().string();
   EXPECT_EQ(error_of([&] { (void)read_text_file(dir, "model file"); }),
             dir + ": cannot read model file: it is a directory");
+  // A device that never ends (a hostile file name in a config, found by thinking about the
+  // fuzzers' reach) is refused before a byte is read.
+  EXPECT_EQ(error_of([] { (void)read_text_file("/dev/zero", "environment file"); }),
+            "/dev/zero: cannot read environment file: not a regular file");
 }
 
 TEST(ErrnoText, NoSystemErrorIsSaidAsUnknown) {
