@@ -40,11 +40,13 @@ def _train(args):
 
 def _evaluate(args):
     from . import policy
+    from .training import evaluate, load_config  # numpy only: no torch to evaluate a policy
 
+    if args.out and os.path.exists(args.out) and any(
+            os.path.exists(f) and os.path.samefile(args.out, f) for f in (args.policy, args.config)):
+        raise ValueError(f"evaluate: --out {args.out} is one of the inputs; the results go to a new file")
     p = policy.load(args.policy)
-    config = _config_for_evaluation(args.config)
-    from .training import evaluate  # numpy only: no torch needed to evaluate a shipped policy
-
+    config = load_config(args.config)
     check_layout(p, config)
     result = evaluate(p.evaluate, config, episodes=args.episodes, seed=args.seed)
     text = json.dumps(result, indent=2)
@@ -58,12 +60,6 @@ def _evaluate(args):
               file=sys.stderr)
         return 3
     return 0
-
-
-def _config_for_evaluation(path):
-    from .training import load_config
-
-    return load_config(path)
 
 
 def check_layout(p, config):

@@ -204,6 +204,12 @@ def test_cli_evaluates_a_policy_file(smoke_run, cli, tmp_path):
     assert r.returncode == 0, r.stderr
     data = json.loads(result.read_text())
     assert data["episodes"] == 3 and len(data["cause"]) == 3
+    # The results never replace an input: --out onto the policy file is refused, the file intact.
+    before = (out / "policy.dtpolicy").read_bytes()
+    r = subprocess.run([cli, "evaluate", str(out / "policy.dtpolicy"), "--config", HOVER, "--episodes", "3",
+                        "--out", str(out / "policy.dtpolicy")], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2 and "is one of the inputs" in r.stderr
+    assert (out / "policy.dtpolicy").read_bytes() == before
     r = subprocess.run([cli, "train", HOVER, "--out", str(out)], capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and "exists and is not empty" in r.stderr
     # The command trains too: one update (--steps below one update's samples), then exports.
