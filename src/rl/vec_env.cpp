@@ -547,14 +547,16 @@ void VecEnv<T>::evaluate(int env) {
     if (cause == EndCause::kNone && cross_gate(g, p0, p1) == GateCrossing::kThrough) {
       ++gates_now;
       ++gates_passed_[e];
-      ++next_gate_[e];
-      if (next_gate_[e] == num_gates) {
-        // A lap: every gate in order. Its time runs from the previous lap's end (or the start).
+      const bool last_gate = ++next_gate_[e] == num_gates;
+      if (last_gate) next_gate_[e] = track.closed ? 0 : num_gates - 1;
+      // A lap: every gate once, in order, counted from the gate the episode started before (a
+      // random start gate begins its laps there, not at g1). An open track ends at its last gate.
+      if (track.closed ? gates_passed_[e] % num_gates == 0 : last_gate) {
+        // Its time runs from the previous lap's end (or the start).
         ++laps_[e];
         const double lap = t_now - lap_start_s_[e];
         if (!(best_lap_s_[e] <= lap)) best_lap_s_[e] = lap;
         lap_start_s_[e] = t_now;
-        next_gate_[e] = track.closed ? 0 : num_gates - 1;
         if (!track.closed || (config_.laps > 0 && laps_[e] >= config_.laps))
           cause = EndCause::kFinished;
       }

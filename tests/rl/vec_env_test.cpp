@@ -254,6 +254,27 @@ TEST(VecEnvGates, TheCircuitCanBeLappedWithoutACrash) {
   EXPECT_GT(env.finished_best_lap_data()[0], env.config().track.length_m() / 6.0);
 }
 
+// With random start gates (the racing curriculum) a lap is every gate once, counted from the gate
+// the episode starts before: starting before g4, one lap is g4 ... g8, g1 ... g3, not g4 ... g8.
+TEST(VecEnvGates, ALapFromARandomStartGateIsEveryGateOnce) {
+  for (int seed = 0; seed < 64; ++seed) {
+    std::string overrides =
+        "{racing: {laps: 1, random_start_gate: true}, episode_time_s: 60, seed: ";
+    overrides += std::to_string(seed);
+    overrides += "}";
+    auto env = make_env("racing", 1, overrides);
+    if (env.next_gate_data()[0] == 0) continue;  // this seed starts at g1: try the next
+    fly_at_gates(env, 6000);
+    ASSERT_TRUE(env.done_data()[0]);
+    EXPECT_EQ(env.end_cause_data()[0], static_cast<std::uint8_t>(EndCause::kFinished))
+        << kEndCauseNames[env.end_cause_data()[0]];
+    EXPECT_EQ(env.finished_gates_data()[0], static_cast<int>(env.config().track.gates.size()));
+    EXPECT_EQ(env.finished_laps_data()[0], 1);
+    return;
+  }
+  FAIL() << "no seed in 0..63 started past g1";
+}
+
 // Each low-level action mode holds a hover with the action that means "hover" in it.
 TEST(VecEnvActions, EveryModeHoldsHoverWithItsHoverAction) {
   for (const char* mode :
