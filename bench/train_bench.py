@@ -38,7 +38,8 @@ def main(argv=None):
     c = training.load_config(args.config)
     p = policy.load(os.path.join(args.out, "policy.dtpolicy"))
     train.check_layout(p, c)
-    ev = training.evaluate(p.evaluate, c, episodes=args.episodes, seed=c["evaluation"]["seed"])
+    ev = training.evaluate(p.evaluate, c, episodes=args.episodes, seed=c["evaluation"]["seed"],
+                          overrides=c["evaluation"]["overrides"])
     report = {
         "config": args.config,
         "machine": f"{platform.machine()}, {os.cpu_count()} logical CPUs",
@@ -50,8 +51,8 @@ def main(argv=None):
         "samples_per_s": round(summary["samples_per_s"]),
         "evaluation": {k: v for k, v in ev.items() if not isinstance(v, list)},
     }
-    if "hold_max_m" in ev:
-        h = np.asarray(ev["hold_max_m"], dtype=float)
+    h = np.asarray(ev.get("hold_max_m", []), dtype=float)
+    if np.isfinite(h).any():  # tasks with a target (hover, trajectory)
         report["evaluation"]["hold_max_m_percentiles_50_90_100"] = [
             round(float(np.nanpercentile(h, q)), 4) for q in (50, 90, 100)]
     laps = np.asarray(ev.get("best_lap_s", []), dtype=float)

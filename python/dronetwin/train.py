@@ -48,7 +48,10 @@ def _evaluate(args):
     p = policy.load(args.policy)
     config = load_config(args.config)
     check_layout(p, config)
-    result = evaluate(p.evaluate, config, episodes=args.episodes, seed=args.seed)
+    # The training file's evaluation conditions (racing: from the start, the full episode), as
+    # the trainer's own evaluations use them.
+    result = evaluate(p.evaluate, config, episodes=args.episodes, seed=args.seed,
+                      overrides=config["evaluation"]["overrides"])
     text = json.dumps(result, indent=2)
     if args.out:
         policy.atomic_write_bytes(args.out, (text + "\n").encode())

@@ -182,6 +182,10 @@ def evaluate(act, config, episodes=100, seed=1_000_000, overrides=None, hold_s=2
         out["success_fraction"] = float(_np.mean([k == "finished" for k in names]))
         laps = result["best_lap_s"][_np.isfinite(result["best_lap_s"])]
         out["best_lap_s_mean"] = float(laps.mean()) if laps.size else None
+        # The whole race (every lap) of the finished episodes.
+        race = result["length"][[k == "finished" for k in names]] * env.dt
+        out["race_time_s"] = race.tolist()
+        out["race_time_s_median"] = float(_np.median(race)) if race.size else None
     else:
         out["success_fraction"] = float(_np.mean([k == "time_limit" for k in names]))
     return out
