@@ -348,14 +348,20 @@ class Env:
         self._vec.close()
 
 
-def render_path(positions, gates=None, path=None, title=None):
-    """3-D plot of a path (k, 3) and gate openings (g, 4, 3); PNG at ``path``; RGB array back."""
+def render_path(positions, gates=None, path=None, title=None, labels=None):
+    """3-D plot of a path (k, 3) and gate openings (g, 4, 3); PNG at ``path``; RGB array back.
+    With ``labels``, ``positions`` is a list of paths drawn in turn with a legend."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    positions = _np.asarray(positions, dtype=float).reshape(-1, 3)
+    if labels is None:
+        paths = [_np.asarray(positions, dtype=float).reshape(-1, 3)]
+    else:
+        paths = [_np.asarray(p, dtype=float).reshape(-1, 3) for p in positions]
+        if len(paths) != len(labels):
+            raise ValueError(f"render_path: {len(paths)} paths but {len(labels)} labels")
     fig = plt.figure(figsize=(7, 5), dpi=100)
     ax = fig.add_subplot(projection="3d")
     if gates is not None:
@@ -364,9 +370,14 @@ def render_path(positions, gates=None, path=None, title=None):
             ax.plot(ring[:, 0], ring[:, 1], ring[:, 2], color="tab:orange")
             c = corners.mean(axis=0)
             ax.text(c[0], c[1], c[2] + 0.1, str(g), fontsize=7)
-    if len(positions):
-        ax.plot(positions[:, 0], positions[:, 1], positions[:, 2], color="tab:blue", lw=1.2)
-        ax.scatter(*positions[0], color="green", s=12)
+    colours = ["tab:blue", "tab:red", "tab:green", "tab:purple"]
+    for i, positions in enumerate(paths):
+        if len(positions):
+            ax.plot(positions[:, 0], positions[:, 1], positions[:, 2], color=colours[i % len(colours)], lw=1.2,
+                    label=None if labels is None else labels[i])
+            ax.scatter(*positions[0], color="green", s=12)
+    if labels is not None:
+        ax.legend(loc="upper left", fontsize=8)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")

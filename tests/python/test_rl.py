@@ -180,3 +180,19 @@ def test_single_env_and_render(tmp_path):
     assert not [p for p in os.listdir(tmp_path) if ".tmp" in p]
     with pytest.raises(RuntimeError, match="reset"):
         env.step(np.zeros(3))
+
+
+def test_render_several_labelled_paths(tmp_path):
+    t = np.linspace(0.0, 2.0 * np.pi, 50)
+    a = np.stack([np.cos(t), np.sin(t), 1.0 + 0 * t], axis=1)
+    b = a * [2.0, 2.0, 1.5]
+    gates = rl.make("racing").gates
+    image = rl.render_path([a, b], gates, str(tmp_path / "two.png"), labels=["a", "b"])
+    # The second path is drawn in matplotlib's tab:red (214, 39, 40); a single path has none.
+    red = np.all(np.abs(image.astype(int) - [214, 39, 40]) < 30, axis=2).sum()
+    single = rl.render_path(a, gates)
+    assert red > 50
+    assert np.all(np.abs(single.astype(int) - [214, 39, 40]) < 30, axis=2).sum() == 0
+    assert (tmp_path / "two.png").stat().st_size > 1000
+    with pytest.raises(ValueError, match="2 paths but 1 labels"):
+        rl.render_path([a, b], labels=["a"])
