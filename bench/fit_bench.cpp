@@ -10,7 +10,8 @@
 // The 1-hour log (issue "Reliability", item 2: a 1-hour log at 1 kHz fitted in < 60 s with
 // <= 300 bytes per log row): the same 60 s flight 60 times over, each repeat after a 10 ms gap
 // (3 600 060 rows at 1 kHz; the fit leaves the 59 gaps out, as it would a real log's), fitted
-// with the default options on 1 and 2 threads. Counters: data_bytes_per_row (FlightData::bytes()
+// with the default options on 1 and 2 threads (and once without the coarse start,
+// FitOptions::coarse_intervals = 0). Counters: data_bytes_per_row (FlightData::bytes()
 // / rows) and max_rss_bytes_per_row (the process' peak resident memory after the fit / rows:
 // everything, the log, the fit's scratch, the libraries).
 // Run: build/release/bench/fit_bench --benchmark_repetitions=3 --benchmark_filter=60s
@@ -104,12 +105,14 @@ const FlightData& hour() {
   return h;
 }
 
-void fit_hour(benchmark::State& state, const char* params, FitMethod method, int threads) {
+void fit_hour(benchmark::State& state, const char* params, FitMethod method, int threads,
+              std::size_t coarse_intervals = FitOptions{}.coarse_intervals) {
   const FlightData& h = hour();
   FitOptions o;
   o.parameters = parse_parameter_list(params);
   o.method = method;
   o.num_threads = threads;
+  o.coarse_intervals = coarse_intervals;
   FitResult r;
   for (auto _ : state) {
     r = fit_model(*data().nominal, h, o);
@@ -121,6 +124,7 @@ void fit_hour(benchmark::State& state, const char* params, FitMethod method, int
   state.counters["rows"] = rows;
   state.counters["gaps"] = static_cast<double>(r.gaps);
   state.counters["iterations"] = r.iterations;
+  state.counters["coarse_stride"] = static_cast<double>(r.coarse_stride);
   state.counters["data_bytes_per_row"] = static_cast<double>(h.bytes()) / rows;
   state.counters["max_rss_bytes_per_row"] = 1024.0 * static_cast<double>(usage.ru_maxrss) / rows;
 }
@@ -146,6 +150,10 @@ void BM_Fit60sEquationError3Defaults(benchmark::State& s) {
 void BM_Fit1hEquationError3Defaults(benchmark::State& s) {
   fit_hour(s, kThree, FitMethod::kEquationError, 1);
 }
+// The same without the coarse start: every iteration walks all 3.6 M intervals.
+void BM_Fit1hEquationError3DefaultsAllIntervals(benchmark::State& s) {
+  fit_hour(s, kThree, FitMethod::kEquationError, 1, 0);
+}
 void BM_Fit1hBoth3Defaults(benchmark::State& s) { fit_hour(s, kThree, FitMethod::kBoth, 1); }
 void BM_Fit1hBoth3Defaults2Threads(benchmark::State& s) {
   fit_hour(s, kThree, FitMethod::kBoth, 2);
@@ -161,6 +169,7 @@ BENCHMARK(BM_Fit60sEquationError13Defaults)->Unit(benchmark::kSecond)->Iteration
 BENCHMARK(BM_Fit60sBoth13Defaults)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_Fit60sEquationError3Defaults)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_Fit1hEquationError3Defaults)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_Fit1hEquationError3DefaultsAllIntervals)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_Fit1hBoth3Defaults)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_Fit1hBoth3Defaults2Threads)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_Fit1hBoth13Defaults2Threads)->Unit(benchmark::kSecond)->Iterations(1);

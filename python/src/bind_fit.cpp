@@ -186,6 +186,7 @@ void bind_fit(py::module_& m) {
       .def_readonly("intervals_holdout", &FitResult::intervals_holdout)
       .def_readonly("gaps", &FitResult::gaps)
       .def_readonly("iterations", &FitResult::iterations)
+      .def_readonly("coarse_stride", &FitResult::coarse_stride)
       .def_readonly("termination", &FitResult::termination)
       .def_readonly("solve_time_s", &FitResult::solve_time_s)
       .def_readonly("fitted_spec", &FitResult::fitted_spec,
@@ -210,7 +211,7 @@ void bind_fit(py::module_& m) {
          const std::string& method, double holdout, py::object switches, double min_height_m,
          double window_s, int max_windows, int max_iterations, const std::string& channels,
          const std::string& loss, std::optional<double> loss_scale, const std::string& speed_gains,
-         int num_threads) {
+         int num_threads, long long coarse_intervals) {
         FitOptions o;
         o.parameters = parameters_from(params);
         if (method == "equation")
@@ -233,6 +234,9 @@ void bind_fit(py::module_& m) {
         o.max_windows = max_windows;
         o.max_iterations = max_iterations;
         o.num_threads = num_threads;
+        require(coarse_intervals >= 0, "fit_model: coarse_intervals must be >= 0, got ",
+                coarse_intervals);
+        o.coarse_intervals = static_cast<std::size_t>(coarse_intervals);
         py::gil_scoped_release release;
         return fit_model(*model, flight, o);
       },
@@ -242,12 +246,14 @@ void bind_fit(py::module_& m) {
       py::arg("window_s") = 0.05, py::arg("max_windows") = 200, py::arg("max_iterations") = 50,
       py::arg("channels") = "auto", py::arg("loss") = "huber", py::arg("loss_scale") = py::none(),
       py::arg("speed_gains") = "auto", py::arg("num_threads") = 1,
+      py::arg("coarse_intervals") = 200000,
       "Identifies `params` (names or groups, as a list or a comma-separated str: mass, inertia, "
       "thrust, yaw_moment_per_thrust, drag_moment, rotor_drag, rolling_moment, body_drag, "
       "ground_effect, motor, ...) of `model` from `flight` with Ceres; the same fit as "
       "`dronetwin fit`, with the same options and checks: channels ('auto', 'linear', 'angular', "
       "'linear,angular'), loss ('huber', 'cauchy', 'none') with loss_scale in noise levels, "
-      "speed_gains ('auto', 'fit', 'off'), num_threads (the result is the same on any number). "
+      "speed_gains ('auto', 'fit', 'off'), num_threads (the result is the same on any number), "
+      "coarse_intervals (a longer log starts on a subsample; 0: never). "
       "Check r.holdout_worse before using the fitted model. The GIL is released while it runs.\n\n"
       "    flight = dronetwin.read_flight('out/id/log.csv', 4)\n"
       "    r = dronetwin.fit_model(model, flight, 'thrust,inertia')\n"

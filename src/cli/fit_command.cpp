@@ -118,6 +118,9 @@ void register_fit_command(CLI::App& app, FitCommand& c) {
   c.cmd->add_option("--max-windows", c.max_windows, "At most this many output-error windows (200)");
   c.cmd->add_option("--threads", c.threads,
                     "Threads for the streamed residuals (default 1; same result on any number)");
+  c.cmd->add_option("--coarse-intervals", c.coarse_intervals,
+                    "A log with more than twice this many fitted intervals starts on every m-th "
+                    "of them, at most this many, and finishes on all (default 200000; 0: never)");
   c.cmd->add_option("--disturbances", c.disturbances,
                     "Terms the flight was flown with: all, none, or a list (default: what the "
                     "log's log.json says, else all)");
@@ -158,12 +161,15 @@ int run_fit_command(const FitCommand& c) {
   require(c.max_windows >= 1, "--max-windows: expected a count >= 1, got ", c.max_windows);
   require(c.threads >= 1 && c.threads <= 1024, "--threads: expected a count in [1, 1024], got ",
           c.threads);
+  require(c.coarse_intervals >= 0, "--coarse-intervals: expected a count >= 0, got ",
+          c.coarse_intervals);
   require(std::isfinite(c.min_height_m), "--min-height: expected a height in m, got ",
           c.min_height_m);
   o.holdout_fraction = c.holdout;
   o.window_s = c.window_s;
   o.max_windows = c.max_windows;
   o.num_threads = c.threads;
+  o.coarse_intervals = static_cast<std::size_t>(c.coarse_intervals);
   o.min_height_m = c.min_height_m;
 
   const std::string sidecar = sidecar_path(c.log);

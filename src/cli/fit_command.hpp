@@ -38,6 +38,7 @@ struct FitCommand {
   CLI::Option* loss_scale_option = nullptr;
   double holdout = 0.2, window_s = 0.05, min_height_m = -1e300;
   int max_windows = 200, threads = 1;
+  long long coarse_intervals = 200000;
   bool true_state = false, force = false, ignore_sidecar = false;
 };
 

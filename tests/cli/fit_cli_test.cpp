@@ -227,6 +227,7 @@ TEST_F(FitCli, OptionsOutOfRangeAreNamed) {
       {"--window 1e12", "log intervals, longer than the 1600 intervals fitted"},
       {"--max-windows 0", "--max-windows: expected a count >= 1, got 0"},
       {"--max-windows -3", "--max-windows: expected a count >= 1, got -3"},
+      {"--coarse-intervals -1", "--coarse-intervals: expected a count >= 0, got -1"},
       {"--min-height nan", "--min-height: expected a height in m, got nan"},
       {"--min-height inf", "--min-height: expected a height in m, got inf"},
       {"--holdout nan", "--holdout: expected a share in [0, 0.9), got nan"},

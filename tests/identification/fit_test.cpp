@@ -174,6 +174,47 @@ TEST(FitRecovery, OuNoiseOnRecoversWithinFivePercentFromTheMeasuredState) {
   EXPECT_LT(r.holdout_after.position_m, r.holdout_before.position_m);
 }
 
+// A long log starts on every m-th interval and finishes on all (FitOptions::coarse_intervals).
+// The objective is the same, so the estimates must be the fit's own: here a 20 s noisy flight
+// with a threshold low enough to take the coarse path, against the same fit with it off. Equal
+// means within a hundredth of a standard error (the solver's tolerances, far below the noise).
+TEST(FitRecovery, ACoarseStartEndsAtTheSolutionOfTheFullFit) {
+  const auto nominal = test::load_model("qdrone2");
+  const std::vector<Change> changes{{P::kInertiaXX, 1.2},
+                                    {P::kInertiaZZ, 0.8},
+                                    {P::kThrustK1, 1.2},
+                                    {P::kRotorDrag, 0.8},
+                                    {P::kBodyDragZ, 1.2}};
+  const Flight f = fly("identification_flight_noise.yaml", nominal->spec(), changes, 20.0);
+  FitOptions o;
+  o.parameters = parameters_of(changes);
+  o.max_windows = 40;  // both methods: the coarse streams must keep their weight against these
+  o.coarse_intervals = 0;
+  const FitResult full = fit_model(*nominal, f.data, o);
+  o.coarse_intervals = 1000;
+  const FitResult coarse = fit_model(*nominal, f.data, o);
+  EXPECT_EQ(full.coarse_stride, 1u);
+  ASSERT_GT(coarse.coarse_stride, 1u);
+  EXPECT_EQ(coarse.coarse_stride, (coarse.intervals_used + 999) / 1000);
+  EXPECT_NE(format_fit_report(coarse).find("started on one interval in"), std::string::npos)
+      << format_fit_report(coarse);
+  ASSERT_EQ(full.parameters.size(), coarse.parameters.size());
+  for (std::size_t i = 0; i < full.parameters.size(); ++i) {
+    const FittedParameter &a = full.parameters[i], &b = coarse.parameters[i];
+    ASSERT_TRUE(std::isfinite(a.std_error)) << a.name;
+    EXPECT_LT(std::abs(a.estimate - b.estimate), 0.01 * a.std_error)
+        << a.name << ": " << a.estimate << " (all intervals) vs " << b.estimate << " (coarse)";
+    EXPECT_NEAR(b.std_error / a.std_error, 1.0, 1e-3) << a.name;
+  }
+  ASSERT_EQ(full.speed_sensor_gains.size(), coarse.speed_sensor_gains.size());
+  for (std::size_t i = 0; i < full.speed_sensor_gains.size(); ++i) {
+    EXPECT_LT(std::abs(full.speed_sensor_gains[i].estimate - coarse.speed_sensor_gains[i].estimate),
+              0.01 * full.speed_sensor_gains[i].std_error)
+        << "rotor " << i;
+  }
+  EXPECT_EQ(full.holdout_check.worse, coarse.holdout_check.worse);
+}
+
 TEST(FitDiagnostics, YawMomentAndDragMomentTogetherAreReportedAsNotIdentifiable) {
   // Both enter only as eps (1/K_tau - C_MD) T: the fit must say so instead of inventing values.
   const auto model = test::load_model("qdrone2");

@@ -83,6 +83,7 @@ def test_fit_options_of_the_cli(tmp_path, qdrone2):
                      speed_gains="off")
     assert r.channels == ["linear"] and r.loss == "none" and r.speed_sensor_gains == []
     assert r.holdout_check["channels"].keys() == {"linear acceleration"}
+    assert r.coarse_stride == 1  # a short log is fitted on all its intervals from the start
 
 
 def test_fit_options_out_of_range_are_value_errors(tmp_path, qdrone2):
@@ -98,6 +99,7 @@ def test_fit_options_out_of_range_are_value_errors(tmp_path, qdrone2):
         (dict(min_height_m=math.nan), "min_height_m must be a height in m"),
         (dict(holdout=math.inf), "holdout_fraction must be in"),
         (dict(num_threads=0), "num_threads must be in"),
+        (dict(coarse_intervals=-1), "coarse_intervals must be >= 0, got -1"),
         (dict(window_s=1e-5), "shorter than two log intervals"),
     ]
     for kwargs, message in cases:

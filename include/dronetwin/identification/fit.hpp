@@ -119,6 +119,10 @@ struct FitOptions {
   double window_s = 0.05;
   int max_windows = 200;
   int max_iterations = 50;
+  /// A log with more than twice this many fitted intervals is first solved on every m-th of
+  /// them (m = the smallest stride leaving at most this many), then finished on all: the same
+  /// solution at a fraction of the passes over the whole log. 0: always all.
+  std::size_t coarse_intervals = 200000;
   /// Threads for the streamed residuals (results are bitwise the same on any number).
   int num_threads = 1;
 };
@@ -187,6 +191,8 @@ struct FitResult {
   std::size_t windows = 0;
   double median_dt_s = 0.0;
   int iterations = 0;
+  /// 1, or the stride m of the coarse start (FitOptions::coarse_intervals).
+  std::size_t coarse_stride = 1;
   std::string termination;  ///< Ceres' termination type of the last solve
   double solve_time_s = 0.0;
   /// The input model with the estimates written in.
