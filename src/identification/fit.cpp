@@ -187,9 +187,11 @@ void prepare_held(const ForceKernel<T>& kernel, const Unknowns& u,
 
 // ---- per-interval residual families (streamed) -----------------------------------------------
 
-// The residual functors are marked [[gnu::flatten]]: with T = ceres::Jet, GCC otherwise leaves the
-// Eigen expression evaluators of Jet arithmetic out of line, and profiles of long fits spent about
-// two thirds of their time in those calls. Inlining changes no arithmetic, only call overhead.
+// The residual functors are flattened (DRONETWIN_FLATTEN, core/types.hpp: optimised GCC builds
+// only): with T = ceres::Jet, GCC otherwise leaves the Eigen expression evaluators of Jet
+// arithmetic out of line, and profiles of long fits spent about two thirds of their time in those
+// calls. Inlining changes no arithmetic, only call overhead. (An ASan build of the flattened
+// functors took GCC 12 over 17 minutes and 3.8 GB.)
 
 // Equation error: 3 linear and 3 angular acceleration residuals per interval.
 struct EquationErrorRows {
@@ -200,7 +202,7 @@ struct EquationErrorRows {
   int per_interval() const { return 6; }
   Channel channel(int i) const { return i < 3 ? kLinear : kAngular; }
   template <class T, class Sink>
-  [[gnu::flatten]] void operator()(const T* block, const int* intervals, std::size_t count,
+  DRONETWIN_FLATTEN void operator()(const T* block, const int* intervals, std::size_t count,
                                    Sink&& sink) const {
     const ForceKernel<T> kernel = physics->kernel_at(u->theta<T>(block));
     const std::array<T, kMaxRotors> gain = u->gain<T>(block);
@@ -245,7 +247,7 @@ struct MotorLagRows {
   int per_interval() const { return d->num_rotors(); }
   Channel channel(int) const { return kMotor; }
   template <class T, class Sink>
-  [[gnu::flatten]] void operator()(const T* block, const int* intervals, std::size_t count,
+  DRONETWIN_FLATTEN void operator()(const T* block, const int* intervals, std::size_t count,
                                    Sink&& sink) const {
     const auto th = u->theta<T>(block);
     const T tau_rise = th[static_cast<std::size_t>(ModelParameter::kTauRise)] * tau_rise_unit;
@@ -503,7 +505,7 @@ struct OutputError {
   // Longer log intervals are integrated in substeps of at most this (the thesis physics step).
   static constexpr double kMaxSubstep_s = 1.0e-3;
   template <class T>
-  [[gnu::flatten]] bool operator()(T const* const* params, T* res) const {
+  DRONETWIN_FLATTEN bool operator()(T const* const* params, T* res) const {
     const ForceKernel<T> kernel = physics->kernel_at(u->theta<T>(params[0]));
     const std::array<T, kMaxRotors> gain = u->gain<T>(params[0]);
     const Environment& env = physics->environment;

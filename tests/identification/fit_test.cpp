@@ -35,6 +35,13 @@ const std::vector<Change> kBodyChanges{
     {P::kBodyDragX, 1.2}, {P::kBodyDragY, 0.8}, {P::kBodyDragZ, 1.2}, {P::kTauRise, 0.8},
     {P::kTauFall, 1.2}};
 
+// Five of them, for the fits that need not be the full problem.
+const std::vector<Change> kFiveChanges{{P::kInertiaXX, 1.2},
+                                       {P::kInertiaZZ, 0.8},
+                                       {P::kThrustK1, 1.2},
+                                       {P::kRotorDrag, 0.8},
+                                       {P::kBodyDragZ, 1.2}};
+
 struct Flight {
   VehicleSpec truth;
   FlightData data;
@@ -116,11 +123,7 @@ TEST(FitRecovery, NoiseOffRecoversEveryChangedParameterWithinOnePercent) {
 
 TEST(FitRecovery, OutputErrorAloneRecoversWithinOnePercent) {
   const auto nominal = test::load_model("qdrone2");
-  const std::vector<Change> changes{{P::kInertiaXX, 1.2},
-                                    {P::kInertiaZZ, 0.8},
-                                    {P::kThrustK1, 1.2},
-                                    {P::kRotorDrag, 0.8},
-                                    {P::kBodyDragZ, 1.2}};
+  const std::vector<Change>& changes = kFiveChanges;
   const Flight f = fly("identification_flight.yaml", nominal->spec(), changes, 20.0);
   FitOptions o;
   o.parameters = parameters_of(changes);
@@ -180,11 +183,7 @@ TEST(FitRecovery, OuNoiseOnRecoversWithinFivePercentFromTheMeasuredState) {
 // means within a hundredth of a standard error (the solver's tolerances, far below the noise).
 TEST(FitRecovery, ACoarseStartEndsAtTheSolutionOfTheFullFit) {
   const auto nominal = test::load_model("qdrone2");
-  const std::vector<Change> changes{{P::kInertiaXX, 1.2},
-                                    {P::kInertiaZZ, 0.8},
-                                    {P::kThrustK1, 1.2},
-                                    {P::kRotorDrag, 0.8},
-                                    {P::kBodyDragZ, 1.2}};
+  const std::vector<Change>& changes = kFiveChanges;
   const Flight f = fly("identification_flight_noise.yaml", nominal->spec(), changes, 20.0);
   FitOptions o;
   o.parameters = parameters_of(changes);
