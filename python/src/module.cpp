@@ -104,4 +104,5 @@ PYBIND11_MODULE(_core, m) {
   dp::bind_batch(m);
   dp::bind_rl(m);
   dp::bind_policy(m);
+  dp::bind_world(m);
 }

@@ -26,7 +26,7 @@ const Names kStartKeys = {"position", "yaw_deg"};
 const Names kGateKeys = {"name",     "position", "yaw_deg",  "pitch_deg",
                          "roll_deg", "width_m",  "height_m", "frame_width_m"};
 const Names kObstacleKeys = {"name", "type", "center", "size", "radius_m", "height_m"};
-const Names kObstacleTypes = {"box", "cylinder"};
+const Names kObstacleTypes = {"box", "cylinder", "sphere"};
 
 constexpr double kDeg = M_PI / 180.0;
 
@@ -119,11 +119,19 @@ Track parse_track(const std::string& yaml_text, const std::string& source_name) 
       Obstacle o;
       o.name = m.has("name") ? rd.string(m.get("name"), m.path("name"))
                              : "obstacle " + std::to_string(i);
-      const bool box =
-          rd.choice(m.required("type"), m.path("type"), kObstacleTypes, "obstacle type") == 0;
-      o.shape = box ? Obstacle::Shape::kBox : Obstacle::Shape::kCylinder;
+      const std::size_t type =
+          rd.choice(m.required("type"), m.path("type"), kObstacleTypes, "obstacle type");
+      const bool box = type == 0;
+      o.shape = box ? Obstacle::Shape::kBox
+                    : (type == 1 ? Obstacle::Shape::kCylinder : Obstacle::Shape::kSphere);
       o.center_m = rd.fixed<3>(m.required("center"), m.path("center"), "x, y, z in m");
-      if (box) {
+      if (o.shape == Obstacle::Shape::kSphere) {
+        for (std::string_view k : {"size", "height_m"})
+          if (m.has(k))
+            rd.fail(m.get(k), m.path(k), "not a sphere key (a sphere has center and radius_m)");
+        const double r = rd.positive(m.required("radius_m"), m.path("radius_m"));
+        o.half_size_m = Vec3(r, r, r);
+      } else if (box) {
         for (std::string_view k : {"radius_m", "height_m"})
           if (m.has(k)) rd.fail(m.get(k), m.path(k), "not a box key (a box has center and size)");
         const Vec3 size = rd.fixed<3>(m.required("size"), m.path("size"), "x, y, z extents in m");

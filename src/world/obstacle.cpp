@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dronetwin/math/segment_distance.hpp"
+
 namespace dronetwin {
 
 namespace {
@@ -24,6 +26,8 @@ bool clip_to_slab(double from, double to, double c, double h, double& t0, double
 
 bool touches_obstacle(const Obstacle& o, const Vec3& from, const Vec3& to, double radius_m) {
   double t0 = 0.0, t1 = 1.0;
+  if (o.shape == Obstacle::Shape::kSphere)
+    return math::point_segment_distance(o.center_m, from, to) < o.half_size_m[0] + radius_m;
   if (o.shape == Obstacle::Shape::kBox) {
     for (int k = 0; k < 3; ++k)
       if (!clip_to_slab(from[k], to[k], o.center_m[k], o.half_size_m[k] + radius_m, t0, t1))

@@ -49,7 +49,7 @@ TEST(TrackLoader, TheStraightTrackIsOpen) {
   EXPECT_DOUBLE_EQ(t.length_m(), 8.0);
 }
 
-TEST(TrackLoader, ObstaclesOfBothShapes) {
+TEST(TrackLoader, ObstaclesOfEveryShape) {
   const Track t = parse_track(R"(
 name: t
 arena: {min: [-5, -5, -1], max: [5, 5, 5]}
@@ -58,9 +58,12 @@ gates: [{position: [2, 0, 1], width_m: 1, height_m: 1}]
 obstacles:
   - {type: box, center: [0, 3, 1], size: [2, 1, 2]}
   - {name: p, type: cylinder, center: [-3, 0, 2], radius_m: 0.5, height_m: 4}
+  - {name: ball, type: sphere, center: [3, -3, 2], radius_m: 0.25}
 )",
                               "t.yaml");
-  ASSERT_EQ(t.obstacles.size(), 2u);
+  ASSERT_EQ(t.obstacles.size(), 3u);
+  EXPECT_EQ(t.obstacles[2].shape, Obstacle::Shape::kSphere);
+  EXPECT_EQ(t.obstacles[2].half_size_m, Vec3(0.25, 0.25, 0.25));
   EXPECT_EQ(t.obstacles[0].half_size_m, Vec3(1, 0.5, 1));
   EXPECT_EQ(t.obstacles[1].shape, Obstacle::Shape::kCylinder);
   EXPECT_EQ(t.obstacles[1].half_size_m, Vec3(0.5, 0.5, 2));
@@ -93,6 +96,10 @@ TEST(TrackLoader, MalformedFilesNameTheField) {
       {head + gate + "obstacles: [{type: box, center: [0, 0, 0], size: [1, 0, 1]}]\n",
        "obstacles[0].size"},
       {head + gate + "obstacles: [{type: cylinder, center: [0, 0, 0], radius_m: 1}]\n", "height_m"},
+      {head + gate + "obstacles: [{type: sphere, center: [0, 0, 0], radius_m: 0}]\n",
+       "obstacles[0].radius_m"},
+      {head + gate + "obstacles: [{type: sphere, center: [0, 0, 0], size: [1, 1, 1]}]\n",
+       "obstacles[0].size"},
       {head + gate + "laps: 3\n", "laps"},
   };
   for (const auto& [text, field] : cases) {

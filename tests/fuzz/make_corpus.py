@@ -285,6 +285,12 @@ def main():
 
     reset("track")
     copy_all("track", "config/tracks/*.yaml", "track_")
+    put("track", "obstacles.yaml",
+        "name: t\narena: {min: [-5, -5, -1], max: [5, 5, 5]}\nstart: {position: [0, 0, 1]}\n"
+        "gates: [{position: [2, 0, 1], width_m: 1, height_m: 1}]\nobstacles:\n"
+        "  - {type: box, center: [0, 3, 1], size: [2, 1, 2]}\n"
+        "  - {type: cylinder, center: [-3, 0, 2], radius_m: 0.5, height_m: 4}\n"
+        "  - {type: sphere, center: [3, -3, 2], radius_m: 0.25}\n")
 
     for harness in ("csv_log", "crazyflie_csv"):
         reset(harness)

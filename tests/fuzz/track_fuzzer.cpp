@@ -1,6 +1,8 @@
 // libFuzzer harness: racing-track files (config/track_loader.hpp). Parses the input as a track;
 // for an accepted one, every gate's geometry is usable: finite corners inside the arena, and the
-// passage and frame tests on a segment through it return without trouble and finite numbers.
+// passage and frame tests on a segment through it return without trouble and finite numbers, and
+// a ray straight down from the start meets the ground (or something nearer) within its height.
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -8,6 +10,7 @@
 
 #include "dronetwin/config/track_loader.hpp"
 #include "dronetwin/world/gate.hpp"
+#include "dronetwin/world/ray_cast.hpp"
 #include "fuzz_support.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -32,5 +35,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     fuzz::check(std::isfinite(frame_distance_m(g, before, after)),
                 "the frame distance is not finite");
   }
+  // Straight down from the start, the ground is at most the start's height away; obstacles and
+  // frames can only be nearer (world/ray_cast.hpp).
+  const RayHit down = cast_ray(t, t.start_position_m, -Vec3::UnitZ(), 1e300);
+  fuzz::check(down.distance_m >= 0.0 &&
+                  down.distance_m <= std::max(t.start_position_m.z(), 0.0) * (1.0 + 1e-12),
+              "a ray straight down from the start does not meet the ground within its height");
   return 0;
 }
