@@ -203,7 +203,7 @@ struct EquationErrorRows {
   Channel channel(int i) const { return i < 3 ? kLinear : kAngular; }
   template <class T, class Sink>
   DRONETWIN_FLATTEN void operator()(const T* block, const int* intervals, std::size_t count,
-                                   Sink&& sink) const {
+                                    Sink&& sink) const {
     const ForceKernel<T> kernel = physics->kernel_at(u->theta<T>(block));
     const std::array<T, kMaxRotors> gain = u->gain<T>(block);
     const Environment& env = physics->environment;
@@ -248,7 +248,7 @@ struct MotorLagRows {
   Channel channel(int) const { return kMotor; }
   template <class T, class Sink>
   DRONETWIN_FLATTEN void operator()(const T* block, const int* intervals, std::size_t count,
-                                   Sink&& sink) const {
+                                    Sink&& sink) const {
     const auto th = u->theta<T>(block);
     const T tau_rise = th[static_cast<std::size_t>(ModelParameter::kTauRise)] * tau_rise_unit;
     const T tau_fall = th[static_cast<std::size_t>(ModelParameter::kTauFall)] * tau_fall_unit;
