@@ -37,7 +37,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   // Straight down from the start, the ground is at most the start's height away; obstacles and
   // frames can only be nearer (world/ray_cast.hpp).
-  const RayHit down = cast_ray(t, t.start_position_m, -Vec3::UnitZ(), 1e300);
+  const RayHit down = cast_ray(t, t.start_position_m, -Vec3::UnitZ(), kNoHit);  // unlimited range
   fuzz::check(down.distance_m >= 0.0 &&
                   down.distance_m <= std::max(t.start_position_m.z(), 0.0) * (1.0 + 1e-12),
               "a ray straight down from the start does not meet the ground within its height");
