@@ -55,12 +55,16 @@ GateCrossing cross_gate(const Gate& g, const Vec3& from, const Vec3& to) {
   return forward ? GateCrossing::kThrough : GateCrossing::kBackwards;
 }
 
+std::array<Vec3, 4> Gate::bar_corners() const {
+  const double bar = 0.5 * frame_width_m;
+  const Vec3 y = (0.5 * width_m + bar) * width_axis(), z = (0.5 * height_m + bar) * up_axis();
+  const Vec3& c = center_m;
+  return {c + y + z, c - y + z, c - y - z, c + y - z};
+}
+
 double frame_distance_m(const Gate& g, const Vec3& from, const Vec3& to) {
   const double bar = 0.5 * g.frame_width_m;
-  const Vec3 y = (0.5 * g.width_m + bar) * g.width_axis(),
-             z = (0.5 * g.height_m + bar) * g.up_axis();
-  const Vec3 c = g.center_m;
-  const std::array<Vec3, 4> k = {c + y + z, c - y + z, c - y - z, c + y - z};
+  const std::array<Vec3, 4> k = g.bar_corners();
   double d = math::segment_segment_distance(from, to, k[0], k[1]);
   for (std::size_t i = 1; i < 4; ++i)
     d = std::min(d, math::segment_segment_distance(from, to, k[i], k[(i + 1) % 4]));

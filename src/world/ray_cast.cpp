@@ -5,7 +5,6 @@
 #include <cmath>
 
 #include "dronetwin/core/error.hpp"
-#include "dronetwin/math/segment_distance.hpp"
 
 namespace dronetwin {
 
@@ -101,12 +100,8 @@ double ray_obstacle_m(const Obstacle& ob, const Vec3& o, const Vec3& d) {
 double ray_gate_frame_m(const Gate& g, const Vec3& o, const Vec3& d) {
   // Broad phase: the frame's bounding sphere.
   if (ray_sphere(g.center_m, g.bounding_radius_m(), o, d) == kNoHit) return kNoHit;
-  // The bars as world/gate.cpp's frame_distance_m() has them.
+  const std::array<Vec3, 4> k = g.bar_corners();
   const double bar = 0.5 * g.frame_width_m;
-  const Vec3 y = (0.5 * g.width_m + bar) * g.width_axis(),
-             z = (0.5 * g.height_m + bar) * g.up_axis();
-  const Vec3& c = g.center_m;
-  const std::array<Vec3, 4> k = {c + y + z, c - y + z, c - y - z, c + y - z};
   double best = kNoHit;
   for (std::size_t i = 0; i < 4; ++i)
     best = std::min(best, ray_capsule(k[i], k[(i + 1) % 4], bar, o, d));
@@ -120,14 +115,12 @@ double ray_ground_m(const Vec3& o, const Vec3& d) {
 
 namespace {
 
-void check_ray(const Vec3& o, const Vec3& d, double max_range_m, const char* what,
-               std::size_t index) {
+void check_ray(const Vec3& o, const Vec3& d, const char* what, std::size_t index) {
   require(o.allFinite(), what, index, ": origin: expected finite x, y, z in m, got [",
           o.transpose(), "]");
   require(d.allFinite() && std::abs(d.norm() - 1.0) <= 1e-9, what, index,
           ": direction: expected a unit vector (length 1 to 1e-9), got [", d.transpose(),
           "] of length ", d.norm());
-  (void)max_range_m;
 }
 
 RayHit cast_unchecked(const Track& w, const Vec3& o, const Vec3& d, double max_range_m) {
@@ -157,7 +150,7 @@ void check_range(double max_range_m) {
 RayHit cast_ray(const Track& world, const Vec3& origin_m, const Vec3& direction,
                 double max_range_m) {
   check_range(max_range_m);
-  check_ray(origin_m, direction, max_range_m, "ray cast: ray ", 0);
+  check_ray(origin_m, direction, "ray cast: ray ", 0);
   return cast_unchecked(world, origin_m, direction, max_range_m);
 }
 
@@ -166,7 +159,7 @@ void cast_rays(const Track& world, const double* origins_m, const double* direct
                int* index) {
   check_range(max_range_m);
   for (std::size_t i = 0; i < count; ++i)
-    check_ray(Vec3(origins_m + 3 * i), Vec3(directions + 3 * i), max_range_m, "ray cast: ray ", i);
+    check_ray(Vec3(origins_m + 3 * i), Vec3(directions + 3 * i), "ray cast: ray ", i);
   for (std::size_t i = 0; i < count; ++i) {
     const RayHit h =
         cast_unchecked(world, Vec3(origins_m + 3 * i), Vec3(directions + 3 * i), max_range_m);

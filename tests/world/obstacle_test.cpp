@@ -37,6 +37,19 @@ TEST(Obstacle, BoxFacesAreExact) {
   EXPECT_TRUE(touches_obstacle(o, Vec3(-3, 0, 1), Vec3(-1.5, 0, 1), 0.51));
 }
 
+TEST(Obstacle, SpheresAreExact) {
+  Obstacle o;
+  o.shape = Obstacle::Shape::kSphere;
+  o.center_m = Vec3(1, 2, 3);
+  o.half_size_m = Vec3(0.5, 0.5, 0.5);
+  // A segment passing 0.7 from the centre touches a vehicle sphere of radius 0.21, not 0.19.
+  EXPECT_FALSE(touches_obstacle(o, Vec3(-3, 2.7, 3), Vec3(3, 2.7, 3), 0.19));
+  EXPECT_TRUE(touches_obstacle(o, Vec3(-3, 2.7, 3), Vec3(3, 2.7, 3), 0.21));
+  // A segment ending 1 m short of the surface along the line to the centre.
+  EXPECT_FALSE(touches_obstacle(o, Vec3(-3, 2, 3), Vec3(-0.5, 2, 3), 0.99));
+  EXPECT_TRUE(touches_obstacle(o, Vec3(-3, 2, 3), Vec3(-0.5, 2, 3), 1.01));
+}
+
 TEST(Obstacle, CylinderSidesAreExact) {
   const Obstacle o = pillar();
   // A horizontal pass at 0.5 from the axis: 0.2 from the surface.

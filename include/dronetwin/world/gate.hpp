@@ -29,6 +29,9 @@ struct Gate {
   Vec3 up_axis() const { return axes.col(2); }
   /// The opening's corners in the order (+y,+z), (-y,+z), (-y,-z), (+y,-z) of the gate axes.
   std::array<Vec3, 4> corners() const;
+  /// Where the bars' axes meet, in the order of corners(): the frame is the four capsules of
+  /// radius frame_width / 2 between consecutive ones.
+  std::array<Vec3, 4> bar_corners() const;
   /// Radius of a sphere about center_m that holds the whole frame.
   double bounding_radius_m() const;
 };
