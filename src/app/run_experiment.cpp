@@ -30,6 +30,7 @@
 #include "dronetwin/logging/output_folder.hpp"
 #include "dronetwin/logging/text_file.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "dronetwin/sensors/sensor_suite.hpp"
 
 namespace dronetwin {
 
@@ -61,15 +62,19 @@ DiagnosticSummary summarise(const std::string& name, std::vector<double> v) {
 class RunObserver final : public LoopObserver {
  public:
   RunObserver(const Experiment& e, const ControllerLoopInput* controller_input,
-              const ControllerBase& controller, const Simulator& sim, CsvLogWriter& log,
-              RunSummary& summary)
+              const ControllerBase& controller, const Simulator& sim, SensorSuite& sensors,
+              CsvLogWriter& log, RunSummary& summary)
       : e_(e),
         input_(controller_input),
+        sensors_(sensors),
+        previous_state_(sim.state()),
         log_(log),
         s_(summary),
         tracking_(e.sim.dt_s, e.metrics.window_s),
         row_(log.num_columns()) {
     if (input_ != nullptr) diag_names_ = controller.diagnostic_names();
+    for (const SensorSpec& spec : sensors.specs())
+      sensor_channels_.push_back(sensor_channels(spec, sim.model().num_rotors()).size());
     diag_now_.assign(diag_names_.size(), 0.0);
     diag_values_.resize(diag_names_.size());
     // The statistics start at the initial state, even if the controller fails before t = 0.
@@ -79,6 +84,11 @@ class RunObserver final : public LoopObserver {
   void observe(const ClosedLoop& loop) override {
     const Simulator& sim = loop.simulator();
     const StateVector& x = sim.state();
+    // Every physics step, logged or not: the sensors sample at their own rates.
+    if (sensors_.size() > 0) {
+      sensors_.update(sim.step_count(), make_sensor_truth(sim, previous_state_));
+      previous_state_ = x;
+    }
     const double z = x[state_index::kPosition + 2];
     s_.min_z_m = std::min(s_.min_z_m, z);
     s_.max_z_m = std::max(s_.max_z_m, z);
@@ -149,6 +159,15 @@ class RunObserver final : public LoopObserver {
         for (int i = 0; i < 3; ++i) row_[k++] = w.moment_B[i];
       }
     }
+    for (int i = 0; i < sensors_.size(); ++i) {
+      const SensorReading& r = sensors_.latest(i);
+      row_[k++] = r.stamp_s;
+      for (int j = 0; j < r.size; ++j) row_[k++] = r.values[static_cast<std::size_t>(j)];
+      // Before the first delivery a reading has no values yet: NaN in each of its columns.
+      if (!r.valid())
+        for (std::size_t j = 0; j < sensor_channels_[static_cast<std::size_t>(i)]; ++j)
+          row_[k++] = std::numeric_limits<double>::quiet_NaN();
+    }
     if (input_ != nullptr) {
       // ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y, u_tau_z, saturated, diagnostics
       const ReferencePoint r = loop.reference().at(sim.time_s());
@@ -169,6 +188,10 @@ class RunObserver final : public LoopObserver {
 
   const Experiment& e_;
   const ControllerLoopInput* input_;
+  SensorSuite& sensors_;
+  StateVector previous_state_;
+  /// Channels of each sensor (the NaN columns before its first reading).
+  std::vector<std::size_t> sensor_channels_;
   CsvLogWriter& log_;
   RunSummary& s_;
   TrackingRmse tracking_;
@@ -381,6 +404,21 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   }
   controller->reset();
   ClosedLoop loop(sim, *controller, *reference, control_rate_hz);
+  std::optional<SensorSuite> sensors;
+  try {
+    sensors.emplace(e.sensors, e.sim.dt_s, model->num_rotors(), e.sim.seed);
+  } catch (const InvalidArgument& err) {
+    throw InvalidArgument(e.source + ": " + err.what());
+  }
+  const std::vector<std::string> diagnostic_names =
+      controller_input != nullptr ? controller->diagnostic_names() : std::vector<std::string>{};
+  LogLayout layout{model->num_rotors(),         e.log.measured,   e.log.wrench_breakdown,
+                   controller_input != nullptr, diagnostic_names, e.sensors};
+  try {
+    (void)log_columns(layout);
+  } catch (const InvalidArgument& err) {
+    throw InvalidArgument(e.source + ": sensors: " + err.what());
+  }
   loop.set_real_time(controller_input != nullptr && controller_input->real_time);
 
   // Only now, with every input checked, touch the file system: lock the folder, refuse to replace
@@ -408,10 +446,6 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   s.summary_path = summary_path.string();
   s.metadata_path = metadata_path.string();
 
-  const std::vector<std::string> diagnostic_names =
-      controller_input != nullptr ? controller->diagnostic_names() : std::vector<std::string>{};
-  const LogLayout layout{model->num_rotors(), e.log.measured, e.log.wrench_breakdown,
-                         controller_input != nullptr, diagnostic_names};
   LogMetadata metadata = run_metadata(e, *model, std::move(model_hash));
   metadata.columns = log_columns(layout);
   CsvLogWriter log(out.partial("log.csv").string(), metadata.column_names());
@@ -424,7 +458,7 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
         "the limits and do not hold it still (dronetwin info ",
         e.model_path, ")"));
   }
-  RunObserver observer(e, controller_input, *controller, sim, log, s);
+  RunObserver observer(e, controller_input, *controller, sim, *sensors, log, s);
   const auto start = std::chrono::steady_clock::now();
   const StepResult result = loop.run(e.duration_s, &observer);
   log.close();

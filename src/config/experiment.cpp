@@ -4,11 +4,14 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <initializer_list>
 #include <limits>
 #include <memory>
+#include <numbers>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -39,10 +42,11 @@ using Names = std::vector<std::string_view>;
 
 // ---- key tables -------------------------------------------------------------------------------
 
-const Names kTopLevelKeys = {
-    "name",       "description",    "model",         "seed",     "duration_s",   "physics_dt_s",
-    "integrator", "motor_dynamics", "noise",         "wind_m_s", "gravity_m_s2", "disturbances",
-    "ground",     "divergence",     "initial_state", "log",      "metrics",      "input"};
+const Names kTopLevelKeys = {"name",       "description",  "model",         "seed",
+                             "duration_s", "physics_dt_s", "integrator",    "motor_dynamics",
+                             "noise",      "wind_m_s",     "gravity_m_s2",  "disturbances",
+                             "ground",     "divergence",   "initial_state", "log",
+                             "metrics",    "input",        "sensors"};
 const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
 const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
 const Names kBlockKeys = {"a", "b"};
@@ -75,6 +79,28 @@ const Names kCircleKeys = {"type", "center_m", "radius_m", "period_s", "yaw_rad"
 const Names kFigureEightKeys = {"type", "center_m", "amplitude_x_m", "amplitude_y_m", "period_s"};
 const Names kWaypointsKeys = {"type", "points"};
 const Names kWaypointKeys = {"time_s", "position_m", "yaw_rad"};
+// `sensors:` items: the keys every sensor has, then each type's own (kSensorTypeNames order).
+const Names kSensorTypes(kSensorTypeNames.begin(), kSensorTypeNames.end());
+static_assert(kSensorTypeNames.size() == std::variant_size_v<SensorParameters>,
+              "a new sensor type needs its keys in kSensorKeys and a branch in read_sensor()");
+Names sensor_keys(std::initializer_list<std::string_view> own) {
+  Names keys = {"type", "name", "rate_hz", "latency_s", "mounting"};
+  keys.insert(keys.end(), own);
+  return keys;
+}
+const std::array<Names, 8> kSensorKeys = {
+    sensor_keys({"gyro", "accel"}),
+    sensor_keys({"field_uT", "noise_uT", "hard_iron_uT"}),
+    sensor_keys({"noise_Pa", "drift_Pa_per_sqrt_s", "offset_Pa", "origin_altitude_m"}),
+    sensor_keys(
+        {"position_noise_m", "position_error_m", "position_error_time_s", "velocity_noise_m_s"}),
+    sensor_keys({"position_noise_m", "attitude_noise_rad"}),
+    sensor_keys({"min_range_m", "max_range_m", "noise_m", "noise_fraction", "dropout_probability"}),
+    sensor_keys({"noise_rad_s", "min_distance_m", "max_distance_m"}),
+    sensor_keys({"noise_rad_s"})};
+const Names kMountingKeys = {"position_m", "rpy_deg"};
+const Names kTriadKeys = {"noise_density",           "bias_random_walk", "bias_instability",
+                          "bias_correlation_time_s", "turn_on_bias",     "range"};
 // Keys that on_reference: true replaces (it sets the whole initial state).
 const Names kOnReferenceExcludes = {"position_m", "velocity_m_s",           "quaternion_wxyz",
                                     "euler_rad",  "angular_velocity_rad_s", "rotor_speeds_rad_s"};
@@ -496,6 +522,216 @@ ExperimentInput read_input(const Reader& rd, const YAML::Node& node, const std::
   }
 }
 
+// ---- sensors ----------------------------------------------------------------------------------
+
+/// The name a sensor of type kSensorTypeNames[type] gets without `name:`: the default argument of
+/// its SensorSpec factory (imu, mag, baro, gps, mocap, range, flow, rpm).
+std::string default_sensor_name(std::size_t type) {
+  switch (type) {
+    case 0:
+      return SensorSpec::imu().name;
+    case 1:
+      return SensorSpec::magnetometer().name;
+    case 2:
+      return SensorSpec::barometer().name;
+    case 3:
+      return SensorSpec::gps().name;
+    case 4:
+      return SensorSpec::motion_capture().name;
+    case 5:
+      return SensorSpec::range_finder().name;
+    case 6:
+      return SensorSpec::optical_flow().name;
+    default:
+      return SensorSpec::rotor_speed().name;
+  }
+}
+
+void read_number(const Reader& rd, const Map& m, std::string_view key, double& out) {
+  if (m.has(key)) out = rd.number(m.get(key), m.path(key));
+}
+
+void read_vec3(const Reader& rd, const Map& m, std::string_view key, Vec3& out,
+               const std::string& meaning) {
+  if (m.has(key)) out = rd.fixed<3>(m.get(key), m.path(key), meaning);
+}
+
+/// `gyro:` or `accel:` of an IMU: the TriadNoise fields given, over `t`.
+void read_triad(const Reader& rd, const YAML::Node& node, const std::string& path, TriadNoise& t) {
+  const Map m =
+      rd.map(node, path, kTriadKeys, detail::concat("a map {", name_list(kTriadKeys), "}"));
+  read_number(rd, m, "noise_density", t.noise_density);
+  read_number(rd, m, "bias_random_walk", t.bias_random_walk);
+  read_number(rd, m, "bias_instability", t.bias_instability);
+  read_number(rd, m, "bias_correlation_time_s", t.bias_correlation_time_s);
+  read_number(rd, m, "turn_on_bias", t.turn_on_bias);
+  read_number(rd, m, "range", t.range);
+}
+
+/// `mounting: {position_m, rpy_deg}`: each key given replaces that part of `mounting`.
+void read_mounting(const Reader& rd, const YAML::Node& node, const std::string& path,
+                   Mounting& mounting) {
+  const Map m = rd.map(node, path, kMountingKeys, "a map {position_m, rpy_deg}");
+  read_vec3(rd, m, "position_m", mounting.position_B_m, "x, y, z in m, body frame");
+  if (m.has("rpy_deg")) {
+    const Vec3 rpy =
+        rd.fixed<3>(m.get("rpy_deg"), m.path("rpy_deg"), "roll, pitch, yaw in deg, ZYX") *
+        (std::numbers::pi / 180.0);
+    mounting.rotation_BS_wxyz = math::from_euler(rpy[0], rpy[1], rpy[2]);
+  }
+}
+
+/// The node of `field` ("gyro.noise_density", "position_noise_m[1]") inside `at` (a sensor map),
+/// or the deepest node on its way that the file has (the sensor itself when the value is a
+/// default): where a message about the field points. Recursive, since assigning a YAML::Node
+/// would write into the document.
+YAML::Node field_node(const YAML::Node& at, std::string_view field) {
+  if (field.empty() || !at.IsMap()) return at;
+  const std::size_t dot = field.find('.');
+  std::string_view part = field.substr(0, dot);
+  const std::string_view rest =
+      dot == std::string_view::npos ? std::string_view() : field.substr(dot + 1);
+  std::size_t index = std::string_view::npos;
+  if (const std::size_t open = part.find('['); open != std::string_view::npos) {
+    index = 0;
+    for (std::size_t k = open + 1; k < part.size() && part[k] >= '0' && part[k] <= '9'; ++k)
+      index = index * 10 + static_cast<std::size_t>(part[k] - '0');
+    part = part.substr(0, open);
+  }
+  const YAML::Node child = at[std::string(part)];  // const operator[]: no insertion
+  if (!child.IsDefined()) return at;
+  if (index == std::string_view::npos) return field_node(child, rest);
+  if (!child.IsSequence() || index >= child.size()) return child;
+  return field_node(child[index], rest);
+}
+
+/// One item of `sensors:`: the defaults of its type (SensorSpec::defaults) with the keys given
+/// laid over them, validated against the physics step.
+SensorSpec read_sensor(const Reader& rd, const YAML::Node& node, const std::string& path,
+                       double physics_dt_s) {
+  const std::size_t type = read_type(rd, node, path, kSensorTypes, "sensor type");
+  const Names& keys = kSensorKeys[type];
+  const std::string_view type_name = kSensorTypes[type];
+  // A key of another type (noise_Pa under an imu) says so; any other stranger is the strict
+  // map's "unknown key" with its suggestion.
+  for (const auto& kv : node) {
+    if (!kv.first.IsScalar()) continue;
+    const std::string& key = kv.first.Scalar();
+    if (std::find(keys.begin(), keys.end(), key) != keys.end()) continue;
+    Names owners;
+    for (std::size_t other = 0; other < kSensorKeys.size(); ++other) {
+      const Names& theirs = kSensorKeys[other];
+      if (std::find(theirs.begin(), theirs.end(), key) != theirs.end())
+        owners.push_back(kSensorTypes[other]);
+    }
+    if (!owners.empty())
+      rd.fail(kv.first, path,
+              detail::concat("unknown key '", key, "' for a sensor of type ", type_name,
+                             " (it is a key of type ", name_list(owners),
+                             "); valid keys: ", name_list(keys)));
+  }
+  const Map m = rd.map(node, path, keys,
+                       detail::concat("a map of ", type_name, " settings (", name_list(keys), ")"));
+  SensorSpec s =
+      SensorSpec::defaults(type_name, m.has("name") ? rd.string(m.get("name"), m.path("name"))
+                                                    : default_sensor_name(type));
+  read_number(rd, m, "rate_hz", s.rate_hz);
+  read_number(rd, m, "latency_s", s.latency_s);
+  if (m.has("mounting")) read_mounting(rd, m.get("mounting"), m.path("mounting"), s.mounting);
+  switch (type) {
+    case 0: {
+      auto& p = std::get<ImuParameters>(s.parameters);
+      if (m.has("gyro")) read_triad(rd, m.get("gyro"), m.path("gyro"), p.gyro);
+      if (m.has("accel")) read_triad(rd, m.get("accel"), m.path("accel"), p.accel);
+      break;
+    }
+    case 1: {
+      auto& p = std::get<MagnetometerParameters>(s.parameters);
+      read_vec3(rd, m, "field_uT", p.field_W_uT, "x, y, z in uT, world frame");
+      read_number(rd, m, "noise_uT", p.noise_uT);
+      read_vec3(rd, m, "hard_iron_uT", p.hard_iron_uT, "x, y, z in uT, sensor frame");
+      break;
+    }
+    case 2: {
+      auto& p = std::get<BarometerParameters>(s.parameters);
+      read_number(rd, m, "noise_Pa", p.noise_Pa);
+      read_number(rd, m, "drift_Pa_per_sqrt_s", p.drift_Pa_per_sqrt_s);
+      read_number(rd, m, "offset_Pa", p.offset_Pa);
+      read_number(rd, m, "origin_altitude_m", p.origin_altitude_m);
+      break;
+    }
+    case 3: {
+      auto& p = std::get<GpsParameters>(s.parameters);
+      read_vec3(rd, m, "position_noise_m", p.position_noise_m, "x, y, z in m");
+      read_vec3(rd, m, "position_error_m", p.position_error_m, "x, y, z in m");
+      read_number(rd, m, "position_error_time_s", p.position_error_time_s);
+      read_vec3(rd, m, "velocity_noise_m_s", p.velocity_noise_m_s, "x, y, z in m/s");
+      break;
+    }
+    case 4: {
+      auto& p = std::get<MotionCaptureParameters>(s.parameters);
+      read_number(rd, m, "position_noise_m", p.position_noise_m);
+      read_number(rd, m, "attitude_noise_rad", p.attitude_noise_rad);
+      break;
+    }
+    case 5: {
+      auto& p = std::get<RangeFinderParameters>(s.parameters);
+      read_number(rd, m, "min_range_m", p.min_range_m);
+      read_number(rd, m, "max_range_m", p.max_range_m);
+      read_number(rd, m, "noise_m", p.noise_m);
+      read_number(rd, m, "noise_fraction", p.noise_fraction);
+      read_number(rd, m, "dropout_probability", p.dropout_probability);
+      break;
+    }
+    case 6: {
+      auto& p = std::get<OpticalFlowParameters>(s.parameters);
+      read_number(rd, m, "noise_rad_s", p.noise_rad_s);
+      read_number(rd, m, "min_distance_m", p.min_distance_m);
+      read_number(rd, m, "max_distance_m", p.max_distance_m);
+      break;
+    }
+    default:
+      read_number(rd, m, "noise_rad_s",
+                  std::get<RotorSpeedSensorParameters>(s.parameters).noise_rad_s);
+      break;
+  }
+  try {
+    validate(s, physics_dt_s);
+  } catch (const InvalidArgument& e) {
+    // validate's message starts with the field relative to the sensor ("gyro.noise_density: ...").
+    const std::string message = e.what();
+    rd.fail(field_node(node, std::string_view(message).substr(0, message.find(": "))), "",
+            detail::concat(path, ".", message));
+  }
+  return s;
+}
+
+/// `sensors:`: a list of sensor maps with unique names.
+std::vector<SensorSpec> read_sensors(const Reader& rd, const YAML::Node& node,
+                                     const std::string& path, double physics_dt_s) {
+  if (!node.IsSequence())
+    rd.fail(node, path,
+            detail::concat("expected a list of sensor maps, each with a 'type' (",
+                           name_list(kSensorTypes), "), got ", describe(node)));
+  std::vector<SensorSpec> sensors;
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    const YAML::Node item = node[i];
+    const std::string item_at = item_path(path, i);
+    SensorSpec s = read_sensor(rd, item, item_at, physics_dt_s);
+    for (std::size_t j = 0; j < sensors.size(); ++j) {
+      if (sensors[j].name != s.name) continue;
+      const YAML::Node name = item["name"];  // const operator[]: no insertion
+      rd.fail(name.IsDefined() ? name : item, detail::concat(item_at, ".name"),
+              detail::concat("'", s.name, "' is already the name of ", item_path(path, j),
+                             name.IsDefined() ? ""
+                                              : " (the default name of its type; give one of "
+                                                "them a 'name')"));
+    }
+    sensors.push_back(std::move(s));
+  }
+  return sensors;
+}
+
 void check_experiment(const Experiment& e, const std::string& source) {
   const auto fail = [&](const std::string& field, const std::string& message) {
     throw InvalidArgument(source + ": " + field + ": " + message);
@@ -570,6 +806,20 @@ void check_experiment(const Experiment& e, const std::string& source) {
            "is not finite at t = 0 s (" + loop->reference->describe() +
                "): check its numbers (a period or duration too small to divide by?)");
     }
+  }
+  // The sensors, as read_sensors() checks them (a caller may have changed physics_dt_s).
+  for (std::size_t i = 0; i < e.sensors.size(); ++i) {
+    const std::string item = item_path("sensors", i);
+    try {
+      validate(e.sensors[i], e.sim.dt_s);
+    } catch (const InvalidArgument& x) {
+      throw InvalidArgument(detail::concat(source, ": ", item, ".", x.what()));
+    }
+    for (std::size_t j = 0; j < i; ++j)
+      if (e.sensors[j].name == e.sensors[i].name)
+        fail(detail::concat(item, ".name"),
+             detail::concat("'", e.sensors[i].name, "' is already the name of ",
+                            item_path("sensors", j)));
   }
   // The remaining run settings with the simulator's own check.
   (void)e.sim_config();
@@ -678,6 +928,14 @@ std::int64_t segment_start_step(double start_s, double dt_s) {
   return k > 0.0 ? static_cast<std::int64_t>(k) : 0;
 }
 
+std::vector<SensorSpec> parse_sensor_specs(const std::string& yaml_text,
+                                           const std::string& source_name, double physics_dt_s) {
+  require(std::isfinite(physics_dt_s) && physics_dt_s > 0.0, source_name,
+          ": physics_dt_s: expected a number > 0, got ", physics_dt_s);
+  const Reader rd(source_name);
+  return read_sensors(rd, rd.parse(yaml_text, "a list of sensor maps"), "sensors", physics_dt_s);
+}
+
 Experiment parse_experiment(const std::string& yaml_text, const std::string& source_name) {
   const Reader rd(source_name);
   const std::string expected = "a map of experiment settings";
@@ -722,6 +980,9 @@ Experiment parse_experiment(const std::string& yaml_text, const std::string& sou
                   " m at t = 0); set ground.enabled: false to start there");
   }
   check_experiment(e, source_name);
+  // After the checks above, so that the physics step the sensor rates are checked against is
+  // known to be valid.
+  if (top.has("sensors")) e.sensors = read_sensors(rd, top.get("sensors"), "sensors", e.sim.dt_s);
   return e;
 }
 

@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cstring>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <system_error>
 #include <utility>
@@ -94,6 +95,17 @@ std::vector<LogColumn> log_columns(const LogLayout& layout) {
       }
     }
   }
+  for (const SensorSpec& sensor : layout.sensors) {
+    const std::string what =
+        detail::concat(sensor.type_name(), " '", sensor.name, "' (", sensor.rate_hz,
+                       " Hz, latency ", sensor.latency_s, " s): ");
+    c.push_back(
+        {detail::concat(sensor.name, "_t"), "s",
+         detail::concat(what, "time its latest delivered reading was taken (NaN: none yet)")});
+    for (const SensorChannel& ch : sensor_channels(sensor, layout.num_rotors))
+      c.push_back(
+          {detail::concat(sensor.name, "_", ch.suffix), ch.unit, detail::concat(what, ch.meaning)});
+  }
   if (layout.controller) {
     for (const char* axis : kAxes) {
       c.push_back({std::string("ref_") + axis, "m",
@@ -112,6 +124,16 @@ std::vector<LogColumn> log_columns(const LogLayout& layout) {
                    "controller diagnostic '" + d +
                        "' of its most recent update (NaN: not applicable at that update)"});
     }
+  }
+  // A sensor's columns must not take another column's name ("ref" would write ref_x twice).
+  std::set<std::string_view> seen;
+  for (const LogColumn& col : c) {
+    if (seen.insert(col.name).second) continue;
+    for (const SensorSpec& sensor : layout.sensors)
+      require(col.name.rfind(sensor.name + "_", 0) != 0, "sensor '", sensor.name,
+              "': its log column '", col.name,
+              "' is already a column of the log; give the sensor another name");
+    throw InvalidArgument(detail::concat("log column '", col.name, "' appears twice"));
   }
   return c;
 }

@@ -278,6 +278,18 @@ def main():
     reset("experiment")
     copy_all("experiment", "config/experiments/*.yaml", "experiment_")
     copy_all("experiment", "tests/data/bad_experiments/*.yaml", "bad_", from_config_experiments)
+    put("experiment", "sensors.yaml",
+        "name: sensors\nmodel: ../../models/qdrone2.yaml\nduration_s: 0.1\ninput: {type: hover}\n"
+        "initial_state: {position_m: [0, 0, 1], rotor_speeds_rad_s: hover}\nsensors:\n"
+        "  - {type: imu, rate_hz: 500, mounting: {position_m: [0.02, 0, 0], rpy_deg: [0, 0, 90]},\n"
+        "     gyro: {noise_density: 2.0e-4, range: 35}, accel: {turn_on_bias: 0.05}}\n"
+        "  - {type: magnetometer, field_uT: [20, 0, -44], hard_iron_uT: [1, 0, 0]}\n"
+        "  - {type: barometer, name: baro, noise_Pa: 1.5, origin_altitude_m: 400}\n"
+        "  - {type: gps, latency_s: 0.1, position_noise_m: [0.3, 0.3, 0.6]}\n"
+        "  - {type: motion_capture, rate_hz: 100, attitude_noise_rad: 0.002}\n"
+        "  - {type: range_finder, min_range_m: 0.05, max_range_m: 8}\n"
+        "  - {type: optical_flow, max_distance_m: 5}\n"
+        "  - {type: rotor_speed, name: esc, noise_rad_s: 3}\n")
 
     reset("controller_config")
     copy_all("controller_config", "config/controllers/*.yaml", "controller_")

@@ -38,6 +38,7 @@
 #include "dronetwin/integrators/integrator.hpp"
 #include "dronetwin/model/allocation.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
+#include "dronetwin/sensors/sensor_suite.hpp"
 #include "dronetwin/sim/sim_config.hpp"
 
 namespace dronetwin {
@@ -169,6 +170,11 @@ struct Experiment {
   LogSettings log{};
   MetricsSettings metrics{};
   ExperimentInput input = HoverInput{};
+  /// `sensors:` in the file: the vehicle's sensors (sensors/sensor_suite.hpp), each its type's
+  /// defaults (SensorSpec::defaults) with the file's keys laid over them, validated against
+  /// physics_dt_s, names unique; empty: no sensors (the default). A runner builds a SensorSuite
+  /// from them; docs/experiment-format.md, "Sensors".
+  std::vector<SensorSpec> sensors;
 
   /// Run settings for the Simulator, validated (InvalidArgument naming the field otherwise).
   SimConfig sim_config() const;
@@ -187,14 +193,20 @@ Experiment load_experiment(const std::string& path);
 /// where a relative model path is looked up first.
 Experiment parse_experiment(const std::string& yaml_text, const std::string& source_name);
 
+/// A `sensors:` list on its own (a YAML or JSON sequence of sensor maps, the format of the
+/// experiment file's key, docs/experiment-format.md), checked against `physics_dt_s`. Python's
+/// SensorSuite builds its specs with it. Errors name `source_name` and "sensors[i].<field>".
+std::vector<SensorSpec> parse_sensor_specs(const std::string& yaml_text,
+                                           const std::string& source_name, double physics_dt_s);
+
 /// Checks the parts that depend on the model: every rotor-speed vector (initial state and input)
 /// has one number per rotor of `model`. Throws InvalidArgument naming the field, e.g.
 /// "x.yaml: input.segments[1].rotor_speeds_rad_s: expected 4 numbers (rotors of qdrone2), got 3".
 void check_against_model(const Experiment& experiment, const VehicleModel& model);
 
 /// Re-checks the fields a caller may override after loading (seed is free; duration_s > 0 and
-/// finite, the run settings, and a controller input's rate against physics_dt_s); used by the CLI
-/// after --duration.
+/// finite, the run settings, a controller input's rate against physics_dt_s, and each sensor
+/// (validate(SensorSpec, physics_dt_s), names unique)); used by the CLI after --duration.
 void validate(const Experiment& experiment);
 
 /// First physics step k (time k dt) at which a segment starting at `start_s` is in effect;

@@ -14,7 +14,8 @@
 // world position/velocity, q_WB, body rates), omega_0..omega_{N-1} (achieved rotor speeds, rad/s),
 // omega_ref_0..omega_ref_{N-1} (references), [meas_x .. meas_wz (measured state)], in_contact,
 // crashed, [F_<term>_x, F_<term>_y, F_<term>_z, M_<term>_x, M_<term>_y, M_<term>_z for each term,
-// body frame], [ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y, u_tau_z, saturated (closed
+// body frame], [<sensor>_t, <sensor>_<channel> for each sensor (its latest delivered reading)],
+// [ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y, u_tau_z, saturated (closed
 // loop: the reference at t, the generalized force of the rotor command in effect from t on, and
 // whether its allocation saturated)]. Bracketed groups are optional; the closed-loop group comes
 // last, so an open-loop log's columns are a prefix of the closed-loop log's with the same settings.
@@ -32,6 +33,8 @@
 #include <string_view>
 #include <vector>
 
+#include "dronetwin/sensors/sensor_suite.hpp"
+
 namespace dronetwin {
 
 /// Which optional column groups a run log has.
@@ -44,6 +47,9 @@ struct LogLayout {
   /// With `controller`: the controller's diagnostic_names(), logged after `saturated` as
   /// ctrl_<name> (none for controllers without diagnostics).
   std::vector<std::string> controller_diagnostics = {};
+  /// Sensor columns, before the closed-loop group: per sensor <name>_t (the stamp of its latest
+  /// delivered reading, NaN before the first) and <name>_<channel> (sensors/sensor_suite.hpp).
+  std::vector<SensorSpec> sensors = {};
 };
 
 /// One column of a log: its header name, its unit ("s", "m", "m/s", "1" (dimensionless, e.g. a

@@ -1,0 +1,102 @@
+"""Sensors from Python: a SensorSuite fed by a Simulator (numpy arrays of every delivery), the
+Allan deviation of a simulated static IMU against its configured density, the depth camera's
+numpy frames, sensor columns of a run log with their units, and bad specs named."""
+
+import math
+
+import numpy as np
+import pytest
+
+import dronetwin as dt
+from conftest import source_path
+
+
+def hovering(model, z=2.0):
+    sim = dt.Simulator(model, dt.SimConfig())
+    state = np.zeros(13)
+    state[2] = z
+    state[6] = 1.0
+    sim.reset(state, model.hover_speeds_rad_s())
+    sim.set_rotor_speed_reference(model.hover_speeds_rad_s())
+    return sim
+
+
+def test_suite_runs_with_the_simulator_and_is_seeded(qdrone2):
+    specs = [{"type": "imu", "rate_hz": 500}, {"type": "gps", "rate_hz": 5, "latency_s": 0.2},
+             {"type": "range_finder", "dropout_probability": 0.0}]
+    runs = []
+    for _ in range(2):
+        sim = hovering(qdrone2)
+        sensors = dt.SensorSuite(specs, dt_s=1e-3, num_rotors=4, seed=3)
+        runs.append(sensors.run(sim, 2000))
+    a, b = runs
+    assert sensors.names == ["imu", "gps", "range"]
+    assert [c[0] for c in sensors.channels("gps")] == ["gps_x", "gps_y", "gps_z", "gps_vx", "gps_vy", "gps_vz"]
+    t, f_w = a["imu"]
+    assert f_w.shape == (1001, 6) and t[0] == 0.0 and t[-1] == pytest.approx(2.0)
+    assert np.array_equal(f_w, b["imu"][1])  # bitwise, same seed
+    # Hovering: the accelerometer reads about g up, the range finder the height (2 m).
+    assert np.mean(f_w[:, 2]) == pytest.approx(9.81, abs=0.2)
+    assert np.mean(a["range"][1][:, 0]) == pytest.approx(2.0, abs=0.01)
+    # GPS fixes at 5 Hz arrive 0.2 s late: stamps 0 .. 1.8 s by t = 2 s.
+    assert len(a["gps"][0]) == 10 and a["gps"][0][-1] == pytest.approx(1.8)
+    stamp, values = sensors.latest("range")
+    assert stamp == pytest.approx(2.0) and values.shape == (1,)
+
+
+def test_static_imu_allan_deviation_matches_the_noise_density(qdrone2):
+    density = 2.44e-4
+    gyro = {"noise_density": density, "bias_random_walk": 0.0, "bias_instability": 0.0,
+            "turn_on_bias": 0.0}
+    sensors = dt.SensorSuite([{"type": "imu", "rate_hz": 1000, "gyro": gyro}], 1e-3, 4, seed=9)
+    sim = dt.Simulator(qdrone2, dt.SimConfig())  # resting on the ground, rotors stopped
+    _, f_w = sensors.run(sim, 200_000)["imu"]
+    adev = dt.allan_deviation(f_w[:, 3], 1e-3, [10, 100, 1000])
+    expected = density / np.sqrt(adev["tau_s"])
+    assert np.all(np.abs(adev["deviation"] / expected - 1.0) < 0.10), adev
+
+
+def test_depth_camera_frames_are_numpy_float32():
+    cam = dt.DepthCamera(width_px=32, height_px=24, mounting_rpy_deg=[0, 90, 0])  # looking down
+    states = np.zeros((3, 13))
+    states[:, 2] = [1.0, 2.0, 3.0]
+    states[:, 6] = 1.0
+    frames = cam.render(states)
+    assert frames.shape == (3, 24, 32) and frames.dtype == np.float32
+    for k, h in enumerate([1.0, 2.0, 3.0]):
+        assert np.allclose(frames[k], h, atol=1e-5)
+    track = dt.load_track(source_path("config", "tracks", "circuit.yaml"))
+    assert cam.render(states, track).shape == (3, 24, 32)
+    with pytest.raises(ValueError, match=r"expected shape \(N, 13\)"):
+        cam.render(np.zeros((2, 12)))
+    with pytest.raises(ValueError, match="width_px: expected 1 .. 4096 pixels, got 0"):
+        dt.DepthCamera(width_px=0)
+
+
+def test_run_log_has_sensor_columns_with_units(tmp_path):
+    e = dt.load_experiment(source_path("config", "experiments", "hover_sensors.yaml"))
+    e.duration_s = 2.0
+    s = dt.run_experiment(e, str(tmp_path / "run"))
+    assert s.ok
+    log, meta = dt.read_log(str(tmp_path / "run"), metadata=True)
+    assert meta.column("baro_p").unit == "Pa" and meta.column("imu_fz").unit == "m/s^2"
+    assert meta.column("mag_bx").unit == "uT" and meta.column("flow_x").unit == "rad/s"
+    # The barometer at 400 m above sea level reads the ISA pressure of 400 m + z.
+    late = log["t"] > 1.5
+    alt = np.array([dt.isa_altitude_m(p) for p in log["baro_p"][late]]) - 400.0
+    assert np.mean(alt - log["z"][late]) == pytest.approx(0.0, abs=0.1)
+    # Motion capture lags 5 ms: its stamps trail t by 5 ms once it runs.
+    ok = ~np.isnan(log["mocap_t"])
+    assert np.all(log["t"][ok] - log["mocap_t"][ok] >= 0.005 - 1e-12)
+
+
+def test_bad_specs_are_named():
+    with pytest.raises(ValueError, match=r"sensors\[0\].gyro.noise_density: expected a finite number >= 0, got -1"):
+        dt.SensorSuite([{"type": "imu", "gyro": {"noise_density": -1.0}}], 1e-3, 4)
+    with pytest.raises(ValueError, match="unknown sensor type 'sonar'"):
+        dt.SensorSuite([{"type": "sonar"}], 1e-3, 4)
+    sensors = dt.SensorSuite([{"type": "barometer"}], 1e-3, 4)
+    with pytest.raises(ValueError, match="no sensor named 'imu' \\(sensors: baro\\)"):
+        sensors.latest("imu")
+    assert dt.isa_pressure_Pa(0.0) == 101325.0
+    assert math.isclose(dt.isa_altitude_m(dt.isa_pressure_Pa(123.0)), 123.0, rel_tol=1e-12)
