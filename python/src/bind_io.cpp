@@ -149,6 +149,15 @@ void bind_io(py::module_& m) {
       .def_readonly("diagnostics", &ClosedLoopSummary::diagnostics,
                     "Per-diagnostic statistics (e.g. the NMPC's solve times and failures).");
 
+  py::class_<EstimationSummary>(m, "EstimationSummary",
+                                "The estimator against the true state over every physics step.")
+      .def_readonly("position_rmse_m", &EstimationSummary::position_rmse_m)
+      .def_readonly("velocity_rmse_m_s", &EstimationSummary::velocity_rmse_m_s)
+      .def_readonly("attitude_rmse_rad", &EstimationSummary::attitude_rmse_rad)
+      .def_readonly("samples", &EstimationSummary::samples)
+      .def_readonly("updates", &EstimationSummary::updates)
+      .def_readonly("controller_on_estimate", &EstimationSummary::controller_on_estimate);
+
   py::class_<RunSummary>(m, "RunSummary",
                          "The outcome of run_experiment (summary.json as an object).")
       .def_readonly("experiment_name", &RunSummary::experiment_name)
@@ -170,6 +179,8 @@ void bind_io(py::module_& m) {
       .def_readonly("max_tilt_rad", &RunSummary::max_tilt_rad)
       .def_readonly("crashed", &RunSummary::crashed)
       .def_readonly("closed_loop", &RunSummary::closed_loop, "ClosedLoopSummary or None.")
+      .def_readonly("estimation", &RunSummary::estimation,
+                    "EstimationSummary or None (experiments with `estimation:`).")
       .def_readonly("log_rows", &RunSummary::log_rows)
       .def_readonly("wall_clock_s", &RunSummary::wall_clock_s)
       .def_readonly("real_time_factor", &RunSummary::real_time_factor)

@@ -95,7 +95,7 @@ void bind_sensors(py::module_& m) {
       "its\n"
       "own rate and delivers after its latency, with seeded noise.\n\n"
       "    sensors = dronetwin.SensorSuite([{'type': 'imu'}, {'type': 'gps', 'rate_hz': 5}],\n"
-      "                                    dt_s=sim.dt_s, num_rotors=4, seed=1)\n"
+      "                                    dt_s=sim.config.dt_s, num_rotors=4, seed=1)\n"
       "    sensors.update(sim)                 # at step 0, then after every sim.step()\n"
       "    log = sensors.run(sim, 1000)        # or: step 1000 times, every delivery as arrays\n"
       "    stamp, f_w = sensors.latest('imu')  # the latest delivered reading\n\n"
@@ -179,7 +179,9 @@ void bind_sensors(py::module_& m) {
             };
             {
               const py::gil_scoped_release release;
-              if (sim.step_count() == 0 && s.next_step == 0) {
+              // Step 0 not sampled yet (a new suite, or a simulator reset since): sample it
+              // first (update() restarts the streams after a reset).
+              if (sim.step_count() == 0 && s.next_step != 1) {
                 s.update(sim, scene);
                 collect();
               }

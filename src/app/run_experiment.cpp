@@ -24,6 +24,7 @@
 #include "dronetwin/control/closed_loop.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/dynamics/ground.hpp"
+#include "dronetwin/estimation/sensor_fusion.hpp"
 #include "dronetwin/logging/csv_log.hpp"
 #include "dronetwin/logging/json_writer.hpp"
 #include "dronetwin/logging/log_metadata.hpp"
@@ -56,18 +57,48 @@ DiagnosticSummary summarise(const std::string& name, std::vector<double> v) {
   return d;
 }
 
+/// The sensors of a run and the estimator on them, sensed once per physics step before the
+/// controller (ClosedLoop::set_state_source): the controller reads the estimate when the
+/// experiment asks for it, else the simulator's measured state.
+class RunSensing final : public StateSource {
+ public:
+  RunSensing(const Experiment& e, const Simulator& sim, SensorSuite& suite)
+      : sim_(sim), suite_(suite), previous_(sim.state()) {
+    if (e.estimation) {
+      fusion_.emplace(e.sensors, e.estimation->fusion, sim.state());
+      on_estimate_ = e.estimation->control_on_estimate;
+    }
+  }
+  void sense(const Simulator& sim) override {
+    suite_.update(sim.step_count(), make_sensor_truth(sim, previous_));
+    previous_ = sim.state();
+    if (fusion_) fusion_->process(suite_);
+  }
+  const StateVector& state() const override {
+    return on_estimate_ ? fusion_->estimate() : sim_.measured_state();
+  }
+  const SensorFusion* fusion() const { return fusion_ ? &*fusion_ : nullptr; }
+
+ private:
+  const Simulator& sim_;
+  SensorSuite& suite_;
+  StateVector previous_;
+  std::optional<SensorFusion> fusion_;
+  bool on_estimate_ = false;
+};
+
 /// What a run shows ClosedLoop::run(): one CSV row at t = 0 and after every log.every_n_steps-th
 /// step (and the last good state when the run fails), statistics over every physics step, and
 /// for controller inputs the tracking error and the controller's diagnostics.
 class RunObserver final : public LoopObserver {
  public:
   RunObserver(const Experiment& e, const ControllerLoopInput* controller_input,
-              const ControllerBase& controller, const Simulator& sim, SensorSuite& sensors,
-              CsvLogWriter& log, RunSummary& summary)
+              const ControllerBase& controller, const Simulator& sim, const SensorSuite& sensors,
+              const RunSensing* sensing, CsvLogWriter& log, RunSummary& summary)
       : e_(e),
         input_(controller_input),
         sensors_(sensors),
-        previous_state_(sim.state()),
+        sensing_(sensing),
         log_(log),
         s_(summary),
         tracking_(e.sim.dt_s, e.metrics.window_s),
@@ -84,10 +115,14 @@ class RunObserver final : public LoopObserver {
   void observe(const ClosedLoop& loop) override {
     const Simulator& sim = loop.simulator();
     const StateVector& x = sim.state();
-    // Every physics step, logged or not: the sensors sample at their own rates.
-    if (sensors_.size() > 0) {
-      sensors_.update(sim.step_count(), make_sensor_truth(sim, previous_state_));
-      previous_state_ = x;
+    if (sensing_ != nullptr && sensing_->fusion() != nullptr) {
+      // The estimate against the truth at every step (RunSensing sensed this step already).
+      const StateVector& est = sensing_->fusion()->estimate();
+      est_p2_ += (est.segment<3>(0) - x.segment<3>(0)).squaredNorm();
+      est_v2_ += (est.segment<3>(3) - x.segment<3>(3)).squaredNorm();
+      const double c = std::min(1.0, std::abs(Vec4(est.segment<4>(6)).dot(Vec4(x.segment<4>(6)))));
+      est_a2_ += std::pow(2.0 * std::acos(c), 2);
+      ++est_n_;
     }
     const double z = x[state_index::kPosition + 2];
     s_.min_z_m = std::min(s_.min_z_m, z);
@@ -109,6 +144,19 @@ class RunObserver final : public LoopObserver {
   void finish(const ClosedLoop& loop, const StepResult& result) override {
     // A failed run also logs its last good state, for diagnosis.
     if (!result.ok() && logged_step_ != loop.simulator().step_count()) write_row(loop);
+  }
+
+  std::optional<EstimationSummary> estimation_summary() const {
+    if (sensing_ == nullptr || sensing_->fusion() == nullptr) return std::nullopt;
+    EstimationSummary s;
+    const double n = static_cast<double>(std::max<std::int64_t>(est_n_, 1));
+    s.position_rmse_m = std::sqrt(est_p2_ / n);
+    s.velocity_rmse_m_s = std::sqrt(est_v2_ / n);
+    s.attitude_rmse_rad = std::sqrt(est_a2_ / n);
+    s.samples = est_n_;
+    s.updates = sensing_->fusion()->updates();
+    s.controller_on_estimate = e_.estimation->control_on_estimate;
+    return s;
   }
 
   ClosedLoopSummary closed_loop_summary(const ClosedLoop& loop) const {
@@ -168,6 +216,10 @@ class RunObserver final : public LoopObserver {
         for (std::size_t j = 0; j < sensor_channels_[static_cast<std::size_t>(i)]; ++j)
           row_[k++] = std::numeric_limits<double>::quiet_NaN();
     }
+    if (sensing_ != nullptr && sensing_->fusion() != nullptr) {
+      const StateVector& est = sensing_->fusion()->estimate();
+      for (int i = 0; i < kStateSize; ++i) row_[k++] = est[i];
+    }
     if (input_ != nullptr) {
       // ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y, u_tau_z, saturated, diagnostics
       const ReferencePoint r = loop.reference().at(sim.time_s());
@@ -188,8 +240,10 @@ class RunObserver final : public LoopObserver {
 
   const Experiment& e_;
   const ControllerLoopInput* input_;
-  SensorSuite& sensors_;
-  StateVector previous_state_;
+  const SensorSuite& sensors_;
+  const RunSensing* sensing_;
+  double est_p2_ = 0.0, est_v2_ = 0.0, est_a2_ = 0.0;
+  std::int64_t est_n_ = 0;
   /// Channels of each sensor (the NaN columns before its first reading).
   std::vector<std::size_t> sensor_channels_;
   CsvLogWriter& log_;
@@ -274,6 +328,17 @@ std::string summary_to_json(const RunSummary& s) {
       }
       j.raw("diagnostics", diag.done());
     }
+  }
+  if (s.estimation) {
+    const EstimationSummary& es = *s.estimation;
+    JsonObject est(2);
+    est.num("position_rmse_m", es.position_rmse_m)
+        .num("velocity_rmse_m_s", es.velocity_rmse_m_s)
+        .num("attitude_rmse_rad", es.attitude_rmse_rad)
+        .integer("samples", es.samples)
+        .integer("updates", es.updates)
+        .boolean("controller_on_estimate", es.controller_on_estimate);
+    j.raw("estimation", est.done());
   }
   std::string warnings = "[";
   for (std::size_t i = 0; i < s.warnings.size(); ++i)
@@ -413,7 +478,13 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   const std::vector<std::string> diagnostic_names =
       controller_input != nullptr ? controller->diagnostic_names() : std::vector<std::string>{};
   LogLayout layout{model->num_rotors(),         e.log.measured,   e.log.wrench_breakdown,
-                   controller_input != nullptr, diagnostic_names, e.sensors};
+                   controller_input != nullptr, diagnostic_names, e.sensors,
+                   e.estimation.has_value()};
+  std::optional<RunSensing> sensing;
+  if (!e.sensors.empty()) {
+    sensing.emplace(e, sim, *sensors);
+    loop.set_state_source(&*sensing);
+  }
   try {
     (void)log_columns(layout);
   } catch (const InvalidArgument& err) {
@@ -458,7 +529,8 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
         "the limits and do not hold it still (dronetwin info ",
         e.model_path, ")"));
   }
-  RunObserver observer(e, controller_input, *controller, sim, *sensors, log, s);
+  RunObserver observer(e, controller_input, *controller, sim, *sensors,
+                       sensing ? &*sensing : nullptr, log, s);
   const auto start = std::chrono::steady_clock::now();
   const StepResult result = loop.run(e.duration_s, &observer);
   log.close();
@@ -471,6 +543,7 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   s.failure_message = result.status == StepStatus::kControllerFailed ? loop.failure_message()
                                                                      : sim.failure_message();
   if (controller_input != nullptr) s.closed_loop = observer.closed_loop_summary(loop);
+  s.estimation = observer.estimation_summary();
   s.final_time_s = sim.time_s();
   s.final_state = sim.state();
   s.final_rotor_speeds_rad_s = sim.rotor_speeds_rad_s();

@@ -111,6 +111,14 @@ void print_summary(const RunSummary& s) {
     std::cout << "  saturation      " << c.saturated_updates << " of " << c.control_updates
               << " control updates (" << fixed(100.0 * c.saturated_fraction, 2) << " %)\n";
   }
+  if (s.estimation) {
+    const EstimationSummary& es = *s.estimation;
+    std::cout << "  estimate        position " << fixed(1000.0 * es.position_rmse_m, 2)
+              << " mm, velocity " << fixed(1000.0 * es.velocity_rmse_m_s, 2) << " mm/s, attitude "
+              << fixed(es.attitude_rmse_rad * 180.0 / M_PI, 3) << " deg rms, " << es.updates
+              << " updates, controller on the "
+              << (es.controller_on_estimate ? "estimate" : "measured state") << "\n";
+  }
   std::cout << "  wrote           " << s.log_path << " (" << s.log_rows << " rows), "
             << s.summary_path << "\n";
 }

@@ -46,7 +46,7 @@ const Names kTopLevelKeys = {"name",       "description",  "model",         "see
                              "duration_s", "physics_dt_s", "integrator",    "motor_dynamics",
                              "noise",      "wind_m_s",     "gravity_m_s2",  "disturbances",
                              "ground",     "divergence",   "initial_state", "log",
-                             "metrics",    "input",        "sensors"};
+                             "metrics",    "input",        "sensors",       "estimation"};
 const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
 const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
 const Names kBlockKeys = {"a", "b"};
@@ -732,6 +732,46 @@ std::vector<SensorSpec> read_sensors(const Reader& rd, const YAML::Node& node,
   return sensors;
 }
 
+const Names kEstimationKeys = {"imu", "updates", "controller_input"};
+const Names kControllerInputs = {"estimate", "measured_state"};
+
+/// The names and types of an estimation's sensors, by SensorFusion's own check.
+void check_estimation(const EstimationSettings& s, const std::vector<SensorSpec>& sensors) {
+  (void)SensorFusion(sensors, s.fusion, Simulator::hover_state(Vec3::Zero()));
+}
+
+/// `estimation:` {imu, updates, controller_input}; after the sensors.
+EstimationSettings read_estimation(const Reader& rd, const YAML::Node& node, const Experiment& e) {
+  const Map m =
+      rd.map(node, "estimation", kEstimationKeys, "a map {imu, updates, controller_input}");
+  EstimationSettings s;
+  s.fusion.imu = rd.string(m.required("imu"), m.path("imu"));
+  const YAML::Node updates = m.required("updates");
+  if (!updates.IsSequence())
+    rd.fail(updates, m.path("updates"),
+            "expected a list of sensor names (motion_capture, gps, barometer, magnetometer or "
+            "range_finder sensors), got " +
+                describe(updates));
+  for (std::size_t i = 0; i < updates.size(); ++i)
+    s.fusion.updates.push_back(rd.string(updates[i], item_path(m.path("updates"), i)));
+  if (m.has("controller_input"))
+    s.control_on_estimate = rd.choice(m.get("controller_input"), m.path("controller_input"),
+                                      kControllerInputs, "controller input") == 0;
+  if (e.sensors.empty())
+    rd.fail(node, "estimation", "needs sensors: add a `sensors:` list with an imu");
+  try {
+    check_estimation(s, e.sensors);
+  } catch (const InvalidArgument& x) {
+    // "updates[1]: no sensor named ..." -> field estimation.updates[1].
+    const std::string what = x.what();
+    const std::size_t colon = what.find(": ");
+    const std::string field = what.substr(0, colon);
+    const YAML::Node at = field == "imu" ? m.get("imu") : updates;
+    rd.fail(at, detail::concat("estimation.", field), what.substr(colon + 2));
+  }
+  return s;
+}
+
 void check_experiment(const Experiment& e, const std::string& source) {
   const auto fail = [&](const std::string& field, const std::string& message) {
     throw InvalidArgument(source + ": " + field + ": " + message);
@@ -820,6 +860,13 @@ void check_experiment(const Experiment& e, const std::string& source) {
         fail(detail::concat(item, ".name"),
              detail::concat("'", e.sensors[i].name, "' is already the name of ",
                             item_path("sensors", j)));
+  }
+  if (e.estimation) {
+    try {
+      check_estimation(*e.estimation, e.sensors);
+    } catch (const InvalidArgument& x) {
+      throw InvalidArgument(detail::concat(source, ": estimation.", x.what()));
+    }
   }
   // The remaining run settings with the simulator's own check.
   (void)e.sim_config();
@@ -983,6 +1030,7 @@ Experiment parse_experiment(const std::string& yaml_text, const std::string& sou
   // After the checks above, so that the physics step the sensor rates are checked against is
   // known to be valid.
   if (top.has("sensors")) e.sensors = read_sensors(rd, top.get("sensors"), "sensors", e.sim.dt_s);
+  if (top.has("estimation")) e.estimation = read_estimation(rd, top.get("estimation"), e);
   return e;
 }
 

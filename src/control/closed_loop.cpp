@@ -33,7 +33,7 @@ ClosedLoop::ClosedLoop(Simulator& sim, ControllerBase& controller, const Referen
 
 void ClosedLoop::control() {
   input_.time_s = sim_.time_s();
-  input_.state = sim_.measured_state();
+  input_.state = source_ != nullptr ? source_->state() : sim_.measured_state();
   if (controller_.uses_state_derivative())
     input_.state_derivative = sim_.measured_state_derivative();
   input_.reference = reference_.at(input_.time_s);
@@ -50,6 +50,10 @@ void ClosedLoop::control() {
 
 bool ClosedLoop::update() {
   const std::int64_t k = sim_.step_count();
+  if (source_ != nullptr && k != last_sensed_step_) {
+    source_->sense(sim_);
+    last_sensed_step_ = k;
+  }
   if (k == last_update_step_ || k % steps_per_control_ != 0) return false;
   control();
   // Only after a successful run: a controller that threw is called again on the next update().

@@ -8,6 +8,7 @@
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "dronetwin/math/rotation_vector.hpp"
 #include "dronetwin/sensors/bias_process.hpp"
 
 namespace dronetwin {
@@ -22,28 +23,6 @@ Mat3 skew(const Vec3& v) {
   s << 0, -v[2], v[1], v[2], 0, -v[0], -v[1], v[0], 0;
   return s;
 }
-
-/// exp of a rotation vector as a unit quaternion (w, x, y, z).
-Vec4 quat_exp(const Vec3& theta) {
-  const double a = theta.norm();
-  if (a < 1e-12) {
-    Vec4 q(1.0, 0.5 * theta[0], 0.5 * theta[1], 0.5 * theta[2]);
-    return q.normalized();
-  }
-  const Vec3 s = std::sin(0.5 * a) / a * theta;
-  return Vec4(std::cos(0.5 * a), s[0], s[1], s[2]);
-}
-
-/// The rotation vector of a unit quaternion (the shorter of its two representations).
-Vec3 quat_log(Vec4 q) {
-  if (q[0] < 0.0) q = -q;
-  const Vec3 v = q.tail<3>();
-  const double n = v.norm();
-  if (n < 1e-12) return 2.0 * v;
-  return 2.0 * std::atan2(n, q[0]) / n * v;
-}
-
-Vec4 conjugate(const Vec4& q) { return Vec4(q[0], -q[1], -q[2], -q[3]); }
 
 /// A Gauss-Markov bias as the random walk with the same short-term growth: 2 sigma^2 / T.
 double walk_with_instability(const TriadNoise& n) {
@@ -116,7 +95,7 @@ void ErrorStateEkf::propagate(const Vec3& specific_force_S, const Vec3& rate_S, 
   // Nominal state (Sola Eq. 260).
   p_ += v_ * dt_s + 0.5 * acc_W * dt_s * dt_s;
   v_ += acc_W * dt_s;
-  const Vec4 dq = quat_exp(w * dt_s);
+  const Vec4 dq = math::rotation_exp(w * dt_s);
   q_ = math::multiply<double>(q_, dq).normalized();
   last_rate_B_ = w;
   time_s_ += dt_s;
@@ -163,7 +142,7 @@ void ErrorStateEkf::inject(const Vec15& dx) {
   p_ += dx.segment<3>(kPosition);
   v_ += dx.segment<3>(kVelocity);
   const Vec3 dtheta = dx.segment<3>(kAttitude);
-  q_ = math::multiply<double>(q_, quat_exp(dtheta)).normalized();
+  q_ = math::multiply<double>(q_, math::rotation_exp(dtheta)).normalized();
   bg_ += dx.segment<3>(kGyroBias);
   ba_ += dx.segment<3>(kAccelBias);
   // Reset of the error's mean to zero (Sola Eq. 287): G = diag(I, I, I - [dtheta/2]x, I, I).
@@ -191,7 +170,7 @@ double ErrorStateEkf::update_velocity(const Vec3& z, double sigma) {
 double ErrorStateEkf::update_attitude(const Vec4& z, double sigma) {
   Eigen::Matrix<double, 3, kEkfErrorSize> H = Eigen::Matrix<double, 3, kEkfErrorSize>::Zero();
   H.block<3, 3>(0, kAttitude) = Mat3::Identity();
-  const Vec3 y = quat_log(math::multiply<double>(conjugate(q_), z.normalized()));
+  const Vec3 y = math::rotation_log(math::multiply<double>(math::conjugate(q_), z.normalized()));
   return correct<3>(y, H, Mat3::Identity() * sigma * sigma);
 }
 
@@ -245,7 +224,8 @@ Vec15 ErrorStateEkf::error_to(const StateVector& t, const Vec3& bg, const Vec3& 
   namespace si = state_index;
   Vec15 e;
   e << t.segment<3>(si::kPosition) - p_, t.segment<3>(si::kVelocity) - v_,
-      quat_log(math::multiply<double>(conjugate(q_), Vec4(t.segment<4>(si::kQuaternion)))),
+      math::rotation_log(
+          math::multiply<double>(math::conjugate(q_), Vec4(t.segment<4>(si::kQuaternion)))),
       bg - bg_, ba - ba_;
   return e;
 }

@@ -106,6 +106,11 @@ std::vector<LogColumn> log_columns(const LogLayout& layout) {
       c.push_back(
           {detail::concat(sensor.name, "_", ch.suffix), ch.unit, detail::concat(what, ch.meaning)});
   }
+  if (layout.estimate) {
+    for (const StateColumn& st : kState)
+      c.push_back({detail::concat("est_", st.name), st.unit,
+                   detail::concat("estimated (error-state EKF) ", st.meaning)});
+  }
   if (layout.controller) {
     for (const char* axis : kAxes) {
       c.push_back({std::string("ref_") + axis, "m",

@@ -3,7 +3,7 @@
 namespace dronetwin {
 
 double gauss_markov_allan_peak_ratio() {
-  // The ratio is unimodal in x = tau / T (it rises from 0 like x / 3 and falls like 2 / x):
+  // The ratio is unimodal in x = tau / T (it rises from 0 like 2x / 3 and falls like 2 / x):
   // golden-section search on log x over [0.1, 100].
   static const double peak = [] {
     const double g = 0.5 * (std::sqrt(5.0) - 1.0);

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "dronetwin/math/quaternion.hpp"
+#include "dronetwin/math/rotation_vector.hpp"
 
 namespace dronetwin {
 
@@ -16,13 +17,7 @@ void measure_motion_capture(const MotionCaptureParameters& p, const Mounting& m,
   // Attitude error: a rotation by the small vector dtheta (in the tracked frame), exact exp map.
   const Vec3 dtheta(p.attitude_noise_rad * rng.normal(), p.attitude_noise_rad * rng.normal(),
                     p.attitude_noise_rad * rng.normal());
-  const double angle = dtheta.norm();
-  Vec4 dq(1.0, 0.0, 0.0, 0.0);
-  if (angle > 0.0) {
-    const Vec3 axis = dtheta / angle;
-    dq << std::cos(0.5 * angle), std::sin(0.5 * angle) * axis;
-  }
-  q = math::multiply<double>(q, dq);
+  q = math::multiply<double>(q, math::rotation_exp(dtheta));
   q.normalize();
   if (q[0] < 0.0) q = -q;  // one of the two signs, so logged components do not jump
   for (int i = 0; i < 3; ++i) out[i] = position[i] + p.position_noise_m * rng.normal();

@@ -383,3 +383,47 @@ TEST(ExperimentSensors, ValidateRechecksTheSensorsAfterOverrides) {
 
 }  // namespace
 }  // namespace dronetwin
+
+// ---- estimation --------------------------------------------------------------------------------
+
+namespace dronetwin {
+namespace {
+
+const std::string kImuAndMocap =
+    "\n  - {type: imu}\n  - {type: motion_capture}\n  - {type: optical_flow}\n";
+
+TEST(ExperimentEstimation, ReadsTheFilterSettings) {
+  const Experiment e = parse(kImuAndMocap + "estimation: {imu: imu, updates: [mocap]}\n");
+  ASSERT_TRUE(e.estimation.has_value());
+  EXPECT_EQ(e.estimation->fusion.imu, "imu");
+  EXPECT_EQ(e.estimation->fusion.updates, std::vector<std::string>{"mocap"});
+  EXPECT_TRUE(e.estimation->control_on_estimate);
+  const Experiment m = parse(
+      kImuAndMocap + "estimation: {imu: imu, updates: [], controller_input: measured_state}\n");
+  EXPECT_FALSE(m.estimation->control_on_estimate);
+}
+
+TEST(ExperimentEstimation, BadSettingsNameTheField) {
+  expect_error(kImuAndMocap + "estimation: {imu: gyro, updates: [mocap]}\n",
+               {"s.yaml: estimation.imu: no sensor named 'gyro' (sensors: imu, mocap, flow)"});
+  expect_error(kImuAndMocap + "estimation: {imu: mocap, updates: []}\n",
+               {"estimation.imu: sensor 'mocap' is a motion_capture, not an imu"});
+  expect_error(kImuAndMocap + "estimation: {imu: imu, updates: [flow]}\n",
+               {"estimation.updates[0]: the filter cannot use a optical_flow"});
+  expect_error(kImuAndMocap + "estimation: {imu: imu, updates: [mocap, mocap]}\n",
+               {"estimation.updates[1]: 'mocap' is listed twice"});
+  expect_error(kImuAndMocap + "estimation: {imu: imu, updates: [mocap], controller_input: truth}\n",
+               {"estimation.controller_input: unknown controller input 'truth'"});
+  expect_error(kImuAndMocap + "estimation: {imu: imu}\n",
+               {"estimation: missing required key 'updates'"});
+  const std::string m = error_of([&] {
+    (void)parse_experiment("name: t\nmodel: " + kModel +
+                               "\nduration_s: 1.0\ninput: {type: hover}\n"
+                               "estimation: {imu: imu, updates: []}\n",
+                           "s.yaml");
+  });
+  EXPECT_NE(m.find("estimation: needs sensors"), std::string::npos) << m;
+}
+
+}  // namespace
+}  // namespace dronetwin

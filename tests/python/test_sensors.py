@@ -100,3 +100,13 @@ def test_bad_specs_are_named():
         sensors.latest("imu")
     assert dt.isa_pressure_Pa(0.0) == 101325.0
     assert math.isclose(dt.isa_altitude_m(dt.isa_pressure_Pa(123.0)), 123.0, rel_tol=1e-12)
+
+
+def test_flying_the_circle_on_the_ekf_estimate(tmp_path):
+    e = dt.load_experiment(source_path("config", "experiments", "se3_circle_ekf.yaml"))
+    e.duration_s = 7.0
+    s = dt.run_experiment(e, str(tmp_path / "ekf"))
+    assert s.ok and s.estimation.controller_on_estimate
+    assert s.estimation.position_rmse_m < 0.5e-3 and s.estimation.updates == 700
+    log = dt.read_log(str(tmp_path / "ekf"))
+    assert np.max(np.abs(log["est_x"] - log["x"])) < 5e-3

@@ -76,6 +76,18 @@ struct ClosedLoopSummary {
   std::vector<DiagnosticSummary> diagnostics;
 };
 
+/// What a run with `estimation:` adds to its summary: the estimate against the true state over
+/// every physics step.
+struct EstimationSummary {
+  double position_rmse_m = 0.0;
+  double velocity_rmse_m_s = 0.0;
+  /// RMS of the rotation angle between the estimated and the true attitude.
+  double attitude_rmse_rad = 0.0;
+  std::int64_t samples = 0;
+  std::int64_t updates = 0;  ///< measurement updates applied
+  bool controller_on_estimate = false;
+};
+
 struct RunSummary {
   std::string experiment_name;
   std::string experiment_path;
@@ -108,6 +120,8 @@ struct RunSummary {
 
   /// Set when the input is a controller.
   std::optional<ClosedLoopSummary> closed_loop;
+  /// Set when the experiment has `estimation:`.
+  std::optional<EstimationSummary> estimation;
 
   std::int64_t log_rows = 0;
   double wall_clock_s = 0.0;

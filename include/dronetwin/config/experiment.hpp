@@ -35,6 +35,7 @@
 #include "dronetwin/core/types.hpp"
 #include "dronetwin/dynamics/ground.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
+#include "dronetwin/estimation/sensor_fusion.hpp"
 #include "dronetwin/integrators/integrator.hpp"
 #include "dronetwin/model/allocation.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
@@ -119,6 +120,15 @@ std::string_view input_type_name(const ExperimentInput& input);
 
 // ---- the experiment ---------------------------------------------------------------------------
 
+/// `estimation:` of an experiment file (docs/experiment-format.md, "Estimation").
+struct EstimationSettings {
+  /// The IMU and the sensors the filter fuses (names of `sensors:` entries).
+  FusionSettings fusion;
+  /// `controller_input: estimate` (default) flies the controller on the estimate;
+  /// `measured_state` keeps it on the simulator's measured state and only logs the estimate.
+  bool control_on_estimate = true;
+};
+
 /// Initial condition; default: at rest, level, at the origin (on the ground), rotors stopped.
 struct InitialStateSpec {
   Vec3 position_m = Vec3::Zero();
@@ -175,6 +185,9 @@ struct Experiment {
   /// physics_dt_s, names unique; empty: no sensors (the default). A runner builds a SensorSuite
   /// from them; docs/experiment-format.md, "Sensors".
   std::vector<SensorSpec> sensors;
+  /// `estimation:` in the file: an error-state EKF on the sensors (estimation/sensor_fusion.hpp),
+  /// logged as est_*; with controller_input: estimate the controller flies on it. Needs sensors.
+  std::optional<EstimationSettings> estimation;
 
   /// Run settings for the Simulator, validated (InvalidArgument naming the field otherwise).
   SimConfig sim_config() const;

@@ -60,6 +60,18 @@ class LoopObserver {
   }
 };
 
+/// Where the controller's state comes from when it is not the simulator's measured state: a
+/// sensor suite and an estimator (app/run_experiment.cpp). sense() runs once per physics step,
+/// before the controller may run at that step (and at step 0), so a controller at step k reads
+/// an estimate that has seen the sensors' readings up to step k.
+class StateSource {
+ public:
+  virtual ~StateSource() = default;
+  virtual void sense(const Simulator& sim) = 0;
+  /// The state the controller reads ([p, v, q, w]).
+  virtual const StateVector& state() const = 0;
+};
+
 class ClosedLoop {
  public:
   /// Throws InvalidArgument when control_rate_hz is not positive or does not divide the physics
@@ -90,6 +102,10 @@ class ClosedLoop {
 
   /// Why run() stopped with controller_failed; empty otherwise.
   const std::string& failure_message() const { return failure_message_; }
+
+  /// Controllers read `source->state()` instead of Simulator::measured_state(), and the source
+  /// senses every physics step (null: back to the measured state). Must outlive the loop.
+  void set_state_source(StateSource* source) { source_ = source; }
 
   void set_real_time(bool on) { real_time_ = on; }
   bool real_time() const { return real_time_; }
@@ -128,6 +144,8 @@ class ClosedLoop {
   RotorVector w_cmd_;
   std::int64_t updates_ = 0;
   std::int64_t saturated_updates_ = 0;
+  StateSource* source_ = nullptr;
+  std::int64_t last_sensed_step_ = -1;
   /// Step count at which the controller last ran (-1: never).
   std::int64_t last_update_step_ = -1;
   std::chrono::steady_clock::time_point wall_start_{};

@@ -15,10 +15,11 @@
 // omega_ref_0..omega_ref_{N-1} (references), [meas_x .. meas_wz (measured state)], in_contact,
 // crashed, [F_<term>_x, F_<term>_y, F_<term>_z, M_<term>_x, M_<term>_y, M_<term>_z for each term,
 // body frame], [<sensor>_t, <sensor>_<channel> for each sensor (its latest delivered reading)],
-// [ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y, u_tau_z, saturated (closed
-// loop: the reference at t, the generalized force of the rotor command in effect from t on, and
-// whether its allocation saturated)]. Bracketed groups are optional; the closed-loop group comes
-// last, so an open-loop log's columns are a prefix of the closed-loop log's with the same settings.
+// [est_x .. est_wz (the EKF's estimate)], [ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y,
+// u_tau_z, saturated (closed loop: the reference at t, the generalized force of the rotor command
+// in effect from t on, and whether its allocation saturated)]. Bracketed groups are optional; the
+// closed-loop group comes last, so an open-loop log's columns are a prefix of the closed-loop log's
+// with the same settings.
 //
 // log_columns() gives the same names with a unit and a one-line meaning each (written to the
 // log.json sidecar, io/log_metadata.hpp); the whole format is described in docs/log-format.md.
@@ -50,6 +51,8 @@ struct LogLayout {
   /// Sensor columns, before the closed-loop group: per sensor <name>_t (the stamp of its latest
   /// delivered reading, NaN before the first) and <name>_<channel> (sensors/sensor_suite.hpp).
   std::vector<SensorSpec> sensors = {};
+  /// est_x .. est_wz: the estimator's state (after the sensor columns).
+  bool estimate = false;
 };
 
 /// One column of a log: its header name, its unit ("s", "m", "m/s", "1" (dimensionless, e.g. a
