@@ -749,8 +749,8 @@ EstimationSettings read_estimation(const Reader& rd, const YAML::Node& node, con
   const YAML::Node updates = m.required("updates");
   if (!updates.IsSequence())
     rd.fail(updates, m.path("updates"),
-            "expected a list of sensor names (motion_capture, gps, barometer, magnetometer or "
-            "range_finder sensors), got " +
+            "expected a list of sensor names (motion_capture, gps, barometer, magnetometer, "
+            "range_finder or optical_flow sensors), got " +
                 describe(updates));
   for (std::size_t i = 0; i < updates.size(); ++i)
     s.fusion.updates.push_back(rd.string(updates[i], item_path(m.path("updates"), i)));

@@ -214,6 +214,44 @@ double ErrorStateEkf::update_range(double z, double sigma, const Mounting& mount
   return correct<1>(y, H, Rm);
 }
 
+bool ErrorStateEkf::predicted_flow(const Vec15& dx, const Mounting& m,
+                                   Eigen::Vector2d& flow) const {
+  // The state moved by dx the way inject() moves it (without the covariance).
+  const Vec3 p = p_ + dx.segment<3>(kPosition);
+  const Vec3 v = v_ + dx.segment<3>(kVelocity);
+  const Vec4 q = math::multiply<double>(q_, math::rotation_exp(dx.segment<3>(kAttitude)));
+  // The gyro reading behind last_rate_B_ is fixed; a bias error changes the rate it implies.
+  const Vec3 w = last_rate_B_ - dx.segment<3>(kGyroBias);
+  const Mat3 R = math::rotation_matrix<double>(q);
+  const Mat3 R_BS = m.rotation_BS();
+  const double o_z = p[2] + (R * m.position_B_m)[2];
+  const double a_z = (R * R_BS.col(2))[2];
+  if (!(a_z < -0.5) || !(o_z > 0.0)) return false;
+  const double d = -o_z / a_z;
+  // sensors/optical_flow.hpp: flow_x = -v_x / d - w_y, flow_y = -v_y / d + w_x (sensor frame).
+  const Vec3 v_S = R_BS.transpose() * (R.transpose() * v + w.cross(m.position_B_m));
+  const Vec3 w_S = R_BS.transpose() * w;
+  flow = Eigen::Vector2d(-v_S[0] / d - w_S[1], -v_S[1] / d + w_S[0]);
+  return true;
+}
+
+double ErrorStateEkf::update_optical_flow(const Eigen::Vector2d& z, double sigma,
+                                          const Mounting& m) {
+  Eigen::Vector2d h0;
+  if (!predicted_flow(Vec15::Zero(), m, h0)) return std::numeric_limits<double>::quiet_NaN();
+  Eigen::Matrix<double, 2, kEkfErrorSize> H;
+  for (int i = 0; i < kEkfErrorSize; ++i) {
+    // Steps of 1e-6 in m, m/s, rad and rad/s: far above round-off, far below the curvature.
+    Vec15 e = Vec15::Zero();
+    e[i] = 1e-6;
+    Eigen::Vector2d plus, minus;
+    if (!predicted_flow(e, m, plus) || !predicted_flow(-e, m, minus))
+      return std::numeric_limits<double>::quiet_NaN();
+    H.col(i) = (plus - minus) / 2e-6;
+  }
+  return correct<2>(Eigen::Vector2d(z - h0), H, Eigen::Matrix2d::Identity() * sigma * sigma);
+}
+
 StateVector ErrorStateEkf::state() const {
   StateVector x;
   x << p_, v_, q_, last_rate_B_;

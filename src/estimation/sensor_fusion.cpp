@@ -20,7 +20,7 @@ int find_sensor(const std::vector<SensorSpec>& specs, const std::string& name, c
                                        "' (sensors: ", names.empty() ? "none" : names, ")"));
 }
 
-constexpr std::size_t kImu = 0, kMag = 1, kBaro = 2, kGps = 3, kMocap = 4, kRange = 5;
+constexpr std::size_t kImu = 0, kMag = 1, kBaro = 2, kGps = 3, kMocap = 4, kRange = 5, kFlow = 6;
 
 Vec3 values3(const SensorReading& r, int first) {
   return Vec3(r.values[static_cast<std::size_t>(first)],
@@ -47,9 +47,9 @@ SensorFusion::SensorFusion(const std::vector<SensorSpec>& specs, const FusionSet
     const std::string field = detail::concat("updates[", k, "]");
     const int i = find_sensor(specs, settings.updates[k], field.c_str());
     const std::size_t type = specs[static_cast<std::size_t>(i)].parameters.index();
-    require(type == kMag || type == kBaro || type == kGps || type == kMocap || type == kRange,
-            field, ": the filter cannot use a ", specs[static_cast<std::size_t>(i)].type_name(),
-            " (it fuses motion_capture, gps, barometer, magnetometer, range_finder)");
+    require(type != kImu && type < 7, field, ": the filter cannot use a ",
+            specs[static_cast<std::size_t>(i)].type_name(),
+            " (it fuses motion_capture, gps, barometer, magnetometer, range_finder, optical_flow)");
     for (const Update& u : update_)
       require(u.sensor != i, field, ": '", settings.updates[k], "' is listed twice");
     update_.push_back({i, type});
@@ -111,6 +111,13 @@ void SensorFusion::process(const SensorSuite& suite) {
         const auto& p = std::get<MagnetometerParameters>(s.parameters);
         ekf_.update_magnetometer(values3(r, 0) - p.hard_iron_uT, p.field_W_uT,
                                  std::max(p.noise_uT, 1e-3), s.mounting);
+        break;
+      }
+      case kFlow: {
+        const auto& p = std::get<OpticalFlowParameters>(s.parameters);
+        const Eigen::Vector2d flow(r.values[0], r.values[1]);
+        if (!flow.allFinite()) continue;
+        ekf_.update_optical_flow(flow, std::max(p.noise_rad_s, 1e-4), s.mounting);
         break;
       }
       default: {  // range finder

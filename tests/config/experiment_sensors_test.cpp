@@ -390,7 +390,7 @@ namespace dronetwin {
 namespace {
 
 const std::string kImuAndMocap =
-    "\n  - {type: imu}\n  - {type: motion_capture}\n  - {type: optical_flow}\n";
+    "\n  - {type: imu}\n  - {type: motion_capture}\n  - {type: rotor_speed}\n";
 
 TEST(ExperimentEstimation, ReadsTheFilterSettings) {
   const Experiment e = parse(kImuAndMocap + "estimation: {imu: imu, updates: [mocap]}\n");
@@ -405,11 +405,11 @@ TEST(ExperimentEstimation, ReadsTheFilterSettings) {
 
 TEST(ExperimentEstimation, BadSettingsNameTheField) {
   expect_error(kImuAndMocap + "estimation: {imu: gyro, updates: [mocap]}\n",
-               {"s.yaml: estimation.imu: no sensor named 'gyro' (sensors: imu, mocap, flow)"});
+               {"s.yaml: estimation.imu: no sensor named 'gyro' (sensors: imu, mocap, rpm)"});
   expect_error(kImuAndMocap + "estimation: {imu: mocap, updates: []}\n",
                {"estimation.imu: sensor 'mocap' is a motion_capture, not an imu"});
-  expect_error(kImuAndMocap + "estimation: {imu: imu, updates: [flow]}\n",
-               {"estimation.updates[0]: the filter cannot use a optical_flow"});
+  expect_error(kImuAndMocap + "estimation: {imu: imu, updates: [rpm]}\n",
+               {"estimation.updates[0]: the filter cannot use a rotor_speed"});
   expect_error(kImuAndMocap + "estimation: {imu: imu, updates: [mocap, mocap]}\n",
                {"estimation.updates[1]: 'mocap' is listed twice"});
   expect_error(kImuAndMocap + "estimation: {imu: imu, updates: [mocap], controller_input: truth}\n",

@@ -68,12 +68,15 @@ TEST(ErrorStateEkf, UpdatesReproduceAPreciseMeasurementOfANearbyState) {
   p.position_sigma_m = p.velocity_sigma_m_s = p.attitude_sigma_rad = 1.0;
   const StateVector x0 = [] {
     StateVector x = Simulator::hover_state(Vec3(0.3, -0.2, 1.7));
+    x.segment<3>(3) = Vec3(0.8, -0.5, 0.2);
     x.segment<4>(6) = math::from_euler(0.2, -0.15, 0.8);
+    x.segment<3>(10) = Vec3(0.3, -0.2, 0.4);
     return x;
   }();
   const Mounting m{Vec3(0.05, 0.02, -0.04), math::from_euler(M_PI + 0.1, 0.05, -0.2)};
   const Vec3 field(19.5, 0.0, -43.9);
-  for (int which = 0; which < 3; ++which) {  // position with a lever arm, magnetometer, range
+  // Position with a lever arm, magnetometer, range, optical flow.
+  for (int which = 0; which < 4; ++which) {
     ErrorStateEkf ekf(p);
     ekf.reset(x0, 0.0);
     auto h = [&](const StateVector& x) -> Eigen::VectorXd {
@@ -87,12 +90,21 @@ TEST(ErrorStateEkf, UpdatesReproduceAPreciseMeasurementOfANearbyState) {
       const Vec3 a = R * m.rotation_BS().col(2);
       Eigen::VectorXd d(1);
       d << -o[2] / a[2];
-      return d;
+      if (which == 2) return d;
+      // The flow of sensors/optical_flow.hpp, independently: the sensor's velocity and rates in
+      // its frame over the distance along its axis.
+      const Mat3 R_SB = m.rotation_BS().transpose();
+      const Vec3 w = x.segment<3>(10);
+      const Vec3 v_S = R_SB * (R.transpose() * Vec3(x.segment<3>(3)) + w.cross(m.position_B_m));
+      const Vec3 w_S = R_SB * w;
+      Eigen::VectorXd f(2);
+      f << -v_S[0] / d[0] - w_S[1], -v_S[1] / d[0] + w_S[0];
+      return f;
     };
     Eigen::Matrix<double, 9, 1> delta;
-    delta << 1e-5, -2e-5, 1.5e-5, 0, 0, 0, 2e-5, -1e-5, 1.2e-5;
+    delta << 1e-5, -2e-5, 1.5e-5, 3e-5, -1e-5, 2e-5, 2e-5, -1e-5, 1.2e-5;
     StateVector xt = x0;
-    xt.head<3>() += delta.head<3>();
+    xt.head<6>() += delta.head<6>();
     xt.segment<4>(6) = math::multiply<double>(Vec4(x0.segment<4>(6)),
                                               math::from_euler(delta[6], delta[7], delta[8]));
     const Eigen::VectorXd z = h(xt);
@@ -101,6 +113,7 @@ TEST(ErrorStateEkf, UpdatesReproduceAPreciseMeasurementOfANearbyState) {
     // of R alone, so R stays above round-off (1e-4 uT against offsets of 1e-3 uT).
     if (which == 1) ekf.update_magnetometer(z, field, 1e-4, m);
     if (which == 2) ekf.update_range(z[0], 1e-9, m);
+    if (which == 3) ekf.update_optical_flow(Eigen::Vector2d(z[0], z[1]), 1e-9, m);
     const Eigen::VectorXd before = h(x0);
     const Eigen::VectorXd after = h(ekf.state());
     ASSERT_GT((z - before).norm(), 1e-6) << "update " << which << ": the offset must show";

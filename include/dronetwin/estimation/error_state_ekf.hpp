@@ -75,6 +75,12 @@ class ErrorStateEkf {
                              const Mounting& mounting = {});
   /// Distance along the sensor z axis of `mounting` to flat ground z = 0.
   double update_range(double measured_m, double sigma_m, const Mounting& mounting);
+  /// Optical flow [flow_x, flow_y] (rad/s, sensors/optical_flow.hpp) of a downward sensor over
+  /// flat ground z = 0, with the body rates of the last gyro sample (the bias is a state: its
+  /// part of the Jacobian is kept). Jacobian by central differences of the measurement function
+  /// on the error state. NaN (nothing changed) when the axis is more than 60 deg from down.
+  double update_optical_flow(const Eigen::Vector2d& measured_rad_s, double sigma_rad_s,
+                             const Mounting& mounting);
 
   double time_s() const { return time_s_; }
   const Vec3& position() const { return p_; }
@@ -101,6 +107,10 @@ class ErrorStateEkf {
                  const Eigen::Matrix<double, M, kEkfErrorSize>& H,
                  const Eigen::Matrix<double, M, M>& R);
   void inject(const Eigen::Matrix<double, kEkfErrorSize, 1>& dx);
+  /// The flow the sensor would see if the nominal state were moved by `dx` (false when the
+  /// geometry gives none).
+  bool predicted_flow(const Eigen::Matrix<double, kEkfErrorSize, 1>& dx, const Mounting& m,
+                      Eigen::Vector2d& flow) const;
 
   EkfParameters prm_;
   Mat3 R_BS_imu_;

@@ -16,6 +16,7 @@
 //   barometer       height from the ISA altitude of the pressure, sigma from noise_Pa / (rho g)
 //   magnetometer    field minus the configured hard iron, against the configured world field
 //   range_finder    distance to flat ground; readings with no return are skipped
+//   optical_flow    image flow over flat ground with the last gyro rates (no reading: skipped)
 // Readings are applied when delivered; a late position or attitude is first carried forward by
 // its age with the estimated velocity and rates (first order; the covariance is not corrected).
 
