@@ -120,7 +120,7 @@ void SensorFusion::process(const SensorSuite& suite) {
         ekf_.update_optical_flow(flow, std::max(p.noise_rad_s, 1e-4), s.mounting);
         break;
       }
-      default: {  // range finder
+      case kRange: {
         const auto& p = std::get<RangeFinderParameters>(s.parameters);
         const double d = r.values[0];
         if (!std::isfinite(d)) continue;

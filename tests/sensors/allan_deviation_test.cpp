@@ -20,8 +20,6 @@
 namespace dronetwin {
 namespace {
 
-constexpr double kG = 9.81;
-
 /// A static, level IMU sampled `seconds` long at `rate_hz`: gyro x and accel z channels.
 struct StaticLog {
   std::vector<double> gyro_x, accel_z;
