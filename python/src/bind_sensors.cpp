@@ -38,7 +38,7 @@ struct PySensorSuite {
     const std::int64_t step = sim.step_count();
     require(step == next_step || step == 0, "SensorSuite.update: expected step ", next_step,
             " (one update per physics step, in order), got step ", step,
-            "; after Simulator.reset() call SensorSuite.reset()");
+            " (a simulator back at step 0 restarts the sensors)");
     if (step == 0 && next_step != 0) reset_streams();
     const StateVector previous = step == 0 ? sim.state() : previous_state;
     suite.update(step, make_sensor_truth(sim, previous, scene));
@@ -66,10 +66,9 @@ struct PySensorSuite {
   SingleThreadGuard guard;
 };
 
-py::array_t<double> reading_values(const SensorReading& r, std::size_t channels) {
-  py::array_t<double> a(static_cast<py::ssize_t>(channels));
-  for (std::size_t j = 0; j < channels; ++j)
-    a.mutable_data()[j] = r.valid() ? r.values[j] : std::numeric_limits<double>::quiet_NaN();
+py::array_t<double> reading_values(const SensorReading& r) {
+  py::array_t<double> a(r.size);
+  std::copy(r.values.begin(), r.values.begin() + r.size, a.mutable_data());
   return a;
 }
 
@@ -148,9 +147,7 @@ void bind_sensors(py::module_& m) {
           [](const PySensorSuite& s, const std::string& name) {
             const int i = s.index(name);
             const SensorReading& r = s.suite.latest(i);
-            const std::size_t n =
-                sensor_channels(s.suite.specs()[static_cast<std::size_t>(i)], s.num_rotors).size();
-            return py::make_tuple(r.stamp_s, reading_values(r, n));
+            return py::make_tuple(r.stamp_s, reading_values(r));
           },
           py::arg("name"),
           "(stamp_s, values) of the latest delivered reading of `name` (NaN before the first).")
@@ -164,9 +161,7 @@ void bind_sensors(py::module_& m) {
                 values(static_cast<std::size_t>(count));
             std::vector<std::size_t> width(static_cast<std::size_t>(count));
             for (int i = 0; i < count; ++i)
-              width[static_cast<std::size_t>(i)] =
-                  sensor_channels(s.suite.specs()[static_cast<std::size_t>(i)], s.num_rotors)
-                      .size();
+              width[static_cast<std::size_t>(i)] = static_cast<std::size_t>(s.suite.latest(i).size);
             const auto collect = [&] {
               for (int i = 0; i < count; ++i) {
                 if (!s.suite.fresh(i)) continue;
@@ -179,9 +174,9 @@ void bind_sensors(py::module_& m) {
             };
             {
               const py::gil_scoped_release release;
-              // Step 0 not sampled yet (a new suite, or a simulator reset since): sample it
-              // first (update() restarts the streams after a reset).
-              if (sim.step_count() == 0 && s.next_step != 1) {
+              // A simulator at step 0 is sampled there first; update() restarts the streams if
+              // anything was sampled before, so sampling step 0 again repeats its readings.
+              if (sim.step_count() == 0) {
                 s.update(sim, scene);
                 collect();
               }

@@ -104,8 +104,6 @@ class RunObserver final : public LoopObserver {
         tracking_(e.sim.dt_s, e.metrics.window_s),
         row_(log.num_columns()) {
     if (input_ != nullptr) diag_names_ = controller.diagnostic_names();
-    for (const SensorSpec& spec : sensors.specs())
-      sensor_channels_.push_back(sensor_channels(spec, sim.model().num_rotors()).size());
     diag_now_.assign(diag_names_.size(), 0.0);
     diag_values_.resize(diag_names_.size());
     // The statistics start at the initial state, even if the controller fails before t = 0.
@@ -211,10 +209,6 @@ class RunObserver final : public LoopObserver {
       const SensorReading& r = sensors_.latest(i);
       row_[k++] = r.stamp_s;
       for (int j = 0; j < r.size; ++j) row_[k++] = r.values[static_cast<std::size_t>(j)];
-      // Before the first delivery a reading has no values yet: NaN in each of its columns.
-      if (!r.valid())
-        for (std::size_t j = 0; j < sensor_channels_[static_cast<std::size_t>(i)]; ++j)
-          row_[k++] = std::numeric_limits<double>::quiet_NaN();
     }
     if (sensing_ != nullptr && sensing_->fusion() != nullptr) {
       const StateVector& est = sensing_->fusion()->estimate();
@@ -244,8 +238,6 @@ class RunObserver final : public LoopObserver {
   const RunSensing* sensing_;
   double est_p2_ = 0.0, est_v2_ = 0.0, est_a2_ = 0.0;
   std::int64_t est_n_ = 0;
-  /// Channels of each sensor (the NaN columns before its first reading).
-  std::vector<std::size_t> sensor_channels_;
   CsvLogWriter& log_;
   RunSummary& s_;
   TrackingRmse tracking_;

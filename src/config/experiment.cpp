@@ -524,29 +524,6 @@ ExperimentInput read_input(const Reader& rd, const YAML::Node& node, const std::
 
 // ---- sensors ----------------------------------------------------------------------------------
 
-/// The name a sensor of type kSensorTypeNames[type] gets without `name:`: the default argument of
-/// its SensorSpec factory (imu, mag, baro, gps, mocap, range, flow, rpm).
-std::string default_sensor_name(std::size_t type) {
-  switch (type) {
-    case 0:
-      return SensorSpec::imu().name;
-    case 1:
-      return SensorSpec::magnetometer().name;
-    case 2:
-      return SensorSpec::barometer().name;
-    case 3:
-      return SensorSpec::gps().name;
-    case 4:
-      return SensorSpec::motion_capture().name;
-    case 5:
-      return SensorSpec::range_finder().name;
-    case 6:
-      return SensorSpec::optical_flow().name;
-    default:
-      return SensorSpec::rotor_speed().name;
-  }
-}
-
 void read_number(const Reader& rd, const Map& m, std::string_view key, double& out) {
   if (m.has(key)) out = rd.number(m.get(key), m.path(key));
 }
@@ -634,7 +611,7 @@ SensorSpec read_sensor(const Reader& rd, const YAML::Node& node, const std::stri
                        detail::concat("a map of ", type_name, " settings (", name_list(keys), ")"));
   SensorSpec s =
       SensorSpec::defaults(type_name, m.has("name") ? rd.string(m.get("name"), m.path("name"))
-                                                    : default_sensor_name(type));
+                                                    : std::string(kSensorDefaultNames[type]));
   read_number(rd, m, "rate_hz", s.rate_hz);
   read_number(rd, m, "latency_s", s.latency_s);
   if (m.has("mounting")) read_mounting(rd, m.get("mounting"), m.path("mounting"), s.mounting);

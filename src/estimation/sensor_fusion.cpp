@@ -33,16 +33,15 @@ Vec3 values3(const SensorReading& r, int first) {
 SensorFusion::SensorFusion(const std::vector<SensorSpec>& specs, const FusionSettings& settings,
                            const StateVector& initial_state)
     : specs_(specs),
+      imu_(find_sensor(specs, settings.imu, "imu")),
       ekf_([&] {
-        const int i = find_sensor(specs, settings.imu, "imu");
-        const auto* imu =
-            std::get_if<ImuParameters>(&specs[static_cast<std::size_t>(i)].parameters);
-        require(imu != nullptr, "imu: sensor '", settings.imu, "' is a ",
-                specs[static_cast<std::size_t>(i)].type_name(), ", not an imu");
-        return EkfParameters::from_imu(*imu, specs[static_cast<std::size_t>(i)].mounting);
+        const SensorSpec& imu = specs[static_cast<std::size_t>(imu_)];
+        const auto* p = std::get_if<ImuParameters>(&imu.parameters);
+        require(p != nullptr, "imu: sensor '", settings.imu, "' is a ", imu.type_name(),
+                ", not an imu");
+        return EkfParameters::from_imu(*p, imu.mounting);
       }()),
       estimate_(initial_state) {
-  imu_ = find_sensor(specs, settings.imu, "imu");
   for (std::size_t k = 0; k < settings.updates.size(); ++k) {
     const std::string field = detail::concat("updates[", k, "]");
     const int i = find_sensor(specs, settings.updates[k], field.c_str());

@@ -21,4 +21,10 @@ double gauss_markov_allan_peak_ratio() {
   return peak;
 }
 
+double gauss_markov_sigma_for_bias_instability(double bias_instability) {
+  static const double factor =
+      std::sqrt(2.0 * std::log(2.0) / M_PI) / gauss_markov_allan_peak_ratio();
+  return bias_instability * factor;
+}
+
 }  // namespace dronetwin

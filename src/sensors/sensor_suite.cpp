@@ -285,6 +285,8 @@ void SensorSuite::reset(std::uint64_t seed) {
     r.last_stamp_s = 0.0;
     r.head = r.count = 0;
     r.latest = SensorReading{};
+    r.latest.size = r.size;
+    r.latest.values.fill(std::numeric_limits<double>::quiet_NaN());
     r.fresh = false;
     if (const auto* imu = std::get_if<ImuParameters>(&s.parameters)) {
       ImuState st;

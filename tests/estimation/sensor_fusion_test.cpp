@@ -9,8 +9,7 @@
 
 #include <cmath>
 
-#include "dronetwin/app/controller_registry.hpp"
-#include "dronetwin/control/closed_loop.hpp"
+#include "circle_flight.hpp"
 #include "dronetwin/control/reference.hpp"
 #include "test_support.hpp"
 
@@ -18,32 +17,19 @@ namespace dronetwin {
 namespace {
 
 TEST(SensorFusion, FlowRangeBaroAndMagKeepVelocityAndHeight) {
-  auto model = test::load_model("qdrone2");
-  const CircleReference circle(Vec3(0, 0, 1), 1.0, 8.0);  // 0.8 m/s at 1 m
-  Simulator sim(model);
-  const ReferencePoint r0 = circle.at(0.0);
-  StateVector x0 = Simulator::hover_state(r0.position_m);
-  x0.segment<3>(3) = r0.velocity_m_s;
-  sim.reset(x0, model->hover_speeds_rad_s());
-  auto controller =
-      load_controller(test::source_path("config/controllers/se3.yaml"), model, 1000.0);
-  ClosedLoop loop(sim, *controller, circle, 1000.0);
   const std::vector<SensorSpec> specs = {SensorSpec::imu(), SensorSpec::optical_flow(),
                                          SensorSpec::range_finder(), SensorSpec::barometer(),
                                          SensorSpec::magnetometer()};
-  SensorSuite suite(specs, 1e-3, 4, 5);
-  SensorFusion fusion(specs, {"imu", {"flow", "range", "baro", "mag"}}, x0);
-  StateVector previous = sim.state();
+  // 0.8 m/s at 1 m.
+  test::CircleFlight flight(CircleReference(Vec3(0, 0, 1), 1.0, 8.0), specs, 5);
+  SensorFusion fusion(specs, {"imu", {"flow", "range", "baro", "mag"}}, flight.initial_state());
+  const Simulator& sim = flight.sim();
   double v2 = 0.0, z2 = 0.0;
   int n = 0;
   const int steps = test::kSanitized ? 4000 : 16000;
   for (int k = 0; k <= steps; ++k) {
-    if (k > 0) {
-      previous = sim.state();
-      ASSERT_TRUE(loop.step().ok());
-    }
-    suite.update(sim.step_count(), make_sensor_truth(sim, previous));
-    fusion.process(suite);
+    flight.advance();
+    fusion.process(flight.sensors());
     if (k >= 1000) {  // after a second of convergence
       const StateVector& e = fusion.estimate();
       v2 += (e.segment<3>(3) - sim.state().segment<3>(3)).squaredNorm();

@@ -73,6 +73,30 @@ TEST(CsvLog, OptionalGroups) {
   }
 }
 
+TEST(CsvLog, SensorAndEstimateGroupsComeBeforeTheClosedLoopOnes) {
+  LogLayout layout{4,   false, false, true, {}, {SensorSpec::barometer(), SensorSpec::gps("fix")},
+                   true};
+  const std::vector<std::string> names = log_column_names(layout);
+  // t, 13 state, 8 rotor columns, in_contact, crashed = 24; then baro_t, baro_p; fix_t + 6.
+  ASSERT_GE(names.size(), 24u + 2u + 7u + 13u + 9u);
+  EXPECT_EQ(names[24], "baro_t");
+  EXPECT_EQ(names[25], "baro_p");
+  EXPECT_EQ(names[26], "fix_t");
+  EXPECT_EQ(names[32], "fix_vz");
+  EXPECT_EQ(names[33], "est_x");
+  EXPECT_EQ(names[45], "est_wz");
+  EXPECT_EQ(names[46], "ref_x");
+  EXPECT_EQ(log_columns(layout)[25].unit, "Pa");
+}
+
+TEST(CsvLog, ASensorWhoseColumnsTakeAnotherColumnsNameIsNamed) {
+  // A motion capture named "ref" would write ref_x, ref_y, ref_z twice in a closed-loop log.
+  const LogLayout layout{4, true, false, true, {}, {SensorSpec::motion_capture("ref")}};
+  EXPECT_EQ(error_of([&] { (void)log_columns(layout); }),
+            "sensor 'ref': its log column 'ref_x' is already a column of the log; give the "
+            "sensor another name");
+}
+
 TEST(CsvLog, HeaderIsExact) {
   const fs::path p = temp_file("log.csv");
   {

@@ -98,6 +98,8 @@ def test_bad_specs_are_named():
     sensors = dt.SensorSuite([{"type": "barometer"}], 1e-3, 4)
     with pytest.raises(ValueError, match="no sensor named 'imu' \\(sensors: baro\\)"):
         sensors.latest("imu")
+    with pytest.raises(ValueError, match=r"sensors: physics_dt_s: expected a number > 0, got 0"):
+        dt.SensorSuite([{"type": "imu"}], 0.0, 4)
     assert dt.isa_pressure_Pa(0.0) == 101325.0
     assert math.isclose(dt.isa_altitude_m(dt.isa_pressure_Pa(123.0)), 123.0, rel_tol=1e-12)
 
@@ -110,3 +112,19 @@ def test_flying_the_circle_on_the_ekf_estimate(tmp_path):
     assert s.estimation.position_rmse_m < 0.5e-3 and s.estimation.updates == 700
     log = dt.read_log(str(tmp_path / "ekf"))
     assert np.max(np.abs(log["est_x"] - log["x"])) < 5e-3
+
+
+def test_update_refuses_a_different_simulator_or_a_skipped_step(qdrone2):
+    sensors = dt.SensorSuite([{"type": "imu"}], 1e-3, 4)
+    sim = hovering(qdrone2)
+    with pytest.raises(ValueError, match="the simulator's dt_s 0.002 differs from the suite's 0.001"):
+        sensors.update(dt.Simulator(qdrone2, dt.SimConfig(dt_s=0.002)))
+    sensors.update(sim)
+    sim.step()
+    sim.step()
+    with pytest.raises(ValueError, match=r"expected step 1 \(one update per physics step, in order\), got step 2"):
+        sensors.update(sim)
+    # After the simulator is reset, run() starts the streams again from step 0.
+    sim = hovering(qdrone2)
+    t, _ = sensors.run(sim, 10)["imu"]
+    assert t[0] == 0.0 and len(t) == 11

@@ -130,13 +130,32 @@ TEST(SensorSuite, BadSpecsNameTheSensorAndField) {
   EXPECT_THROW(SensorSpec::defaults("sonar", "s"), InvalidArgument);
 }
 
+TEST(SensorSuite, BadSuiteSettingsAreNamed) {
+  EXPECT_EQ(test::error_of([&] { SensorSuite({SensorSpec::imu()}, 0.0, 4, 0); }),
+            "SensorSuite: physics_dt_s: expected a number > 0, got 0");
+  EXPECT_EQ(test::error_of([&] { SensorSuite({SensorSpec::imu()}, 1e-3, 9, 0); }),
+            "SensorSuite: num_rotors: expected 1 .. 8, got 9");
+  const SensorSuite suite({SensorSpec::imu(), SensorSpec::barometer()}, 1e-3, 4, 0);
+  EXPECT_EQ(test::error_of([&] { (void)suite.imu_bias(1); }),
+            "imu_bias: sensor 1 ('baro') is a barometer, not an imu");
+  EXPECT_EQ(test::error_of([&] { (void)suite.imu_bias(2); }),
+            "imu_bias: sensor index 2 out of range (2 sensors)");
+}
+
 TEST(SensorSuite, ChannelsNameEveryValue) {
   for (const std::string_view type : kSensorTypeNames) {
     SensorSpec s = SensorSpec::defaults(type, "s");
     s.latency_s = 0.0;
     SensorSuite suite({s}, 1e-3, 6, 0);
+    const int channels = static_cast<int>(sensor_channels(s, 6).size());
+    // Before the first delivery: every channel there, NaN (what a log row holds then).
+    const SensorReading& none = suite.latest(0);
+    EXPECT_EQ(none.size, channels) << type;
+    EXPECT_FALSE(none.valid());
+    for (int j = 0; j < none.size; ++j) EXPECT_TRUE(std::isnan(none.values[j])) << type;
     suite.update(0, rest_at(0.0));
-    EXPECT_EQ(static_cast<int>(sensor_channels(s, 6).size()), suite.latest(0).size) << type;
+    EXPECT_EQ(suite.latest(0).size, channels) << type;
+    EXPECT_TRUE(suite.latest(0).valid()) << type;
   }
 }
 

@@ -58,7 +58,7 @@ class SensorFusion {
     std::size_t type = 0;  ///< index into kSensorTypeNames
   };
   std::vector<SensorSpec> specs_;
-  int imu_ = 0;
+  int imu_ = 0;  ///< before ekf_: its parameters come from this sensor
   std::vector<Update> update_;
   ErrorStateEkf ekf_;
   double last_imu_stamp_s_ = 0.0;

@@ -44,8 +44,7 @@ double gauss_markov_allan_peak_ratio();
 
 /// The Gauss-Markov sigma that models a datasheet "bias instability" B: the process's Allan
 /// deviation peaks at the flicker floor 0.664 B (IEEE Std 952: sigma_floor = B sqrt(2 ln 2 / pi)).
-inline double gauss_markov_sigma_for_bias_instability(double bias_instability) {
-  return bias_instability * std::sqrt(2.0 * std::log(2.0) / M_PI) / gauss_markov_allan_peak_ratio();
-}
+/// The IMU calls it at every sample: the factor is computed once.
+double gauss_markov_sigma_for_bias_instability(double bias_instability);
 
 }  // namespace dronetwin

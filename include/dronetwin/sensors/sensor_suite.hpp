@@ -49,6 +49,10 @@ using SensorParameters = std::variant<ImuParameters, MagnetometerParameters, Bar
 inline constexpr std::array<std::string_view, 8> kSensorTypeNames = {
     "imu",          "magnetometer", "barometer",  "gps", "motion_capture",
     "range_finder", "optical_flow", "rotor_speed"};
+/// The name each type gets when none is given (same order): the factories' default argument,
+/// and an experiment file's sensor without `name:`.
+inline constexpr std::array<std::string_view, 8> kSensorDefaultNames = {
+    "imu", "mag", "baro", "gps", "mocap", "range", "flow", "rpm"};
 
 struct SensorSpec {
   /// Names the sensor's log columns (<name>_<channel>): lower-case letters, digits and '_',
@@ -62,14 +66,14 @@ struct SensorSpec {
   std::string_view type_name() const { return kSensorTypeNames[parameters.index()]; }
 
   /// A sensor of each type with its datasheet-class defaults (rate, latency, mounting, noise).
-  static SensorSpec imu(std::string name = "imu");
-  static SensorSpec magnetometer(std::string name = "mag");
-  static SensorSpec barometer(std::string name = "baro");
-  static SensorSpec gps(std::string name = "gps");
-  static SensorSpec motion_capture(std::string name = "mocap");
-  static SensorSpec range_finder(std::string name = "range");
-  static SensorSpec optical_flow(std::string name = "flow");
-  static SensorSpec rotor_speed(std::string name = "rpm");
+  static SensorSpec imu(std::string name = std::string(kSensorDefaultNames[0]));
+  static SensorSpec magnetometer(std::string name = std::string(kSensorDefaultNames[1]));
+  static SensorSpec barometer(std::string name = std::string(kSensorDefaultNames[2]));
+  static SensorSpec gps(std::string name = std::string(kSensorDefaultNames[3]));
+  static SensorSpec motion_capture(std::string name = std::string(kSensorDefaultNames[4]));
+  static SensorSpec range_finder(std::string name = std::string(kSensorDefaultNames[5]));
+  static SensorSpec optical_flow(std::string name = std::string(kSensorDefaultNames[6]));
+  static SensorSpec rotor_speed(std::string name = std::string(kSensorDefaultNames[7]));
   /// The defaults of the type named `type` (kSensorTypeNames); InvalidArgument otherwise.
   static SensorSpec defaults(std::string_view type, std::string name);
 };
@@ -92,6 +96,8 @@ inline constexpr int kMaxSensorValues = kMaxRotors;
 struct SensorReading {
   /// Time the sample was taken, s; NaN while nothing has been delivered.
   double stamp_s = std::numeric_limits<double>::quiet_NaN();
+  /// Values in use: the sensor's channel count (sensor_channels()), also before the first
+  /// delivery, when every value is NaN.
   int size = 0;
   std::array<double, kMaxSensorValues> values{};
   bool valid() const { return stamp_s == stamp_s; }
@@ -110,7 +116,7 @@ class SensorSuite {
   /// Takes the samples due at physics step `step` (truth at that step) and delivers those whose
   /// latency has passed. Steps must come in order, each once (0, 1, 2, ...).
   void update(std::int64_t step, const SensorTruth& truth);
-  /// The most recently delivered reading of sensor i.
+  /// The most recently delivered reading of sensor i (stamp and values NaN before the first).
   const SensorReading& latest(int i) const { return runtime_[static_cast<std::size_t>(i)].latest; }
   /// True when sensor i delivered a reading in the last update().
   bool fresh(int i) const { return runtime_[static_cast<std::size_t>(i)].fresh; }
