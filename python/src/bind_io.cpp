@@ -54,6 +54,7 @@ void bind_io(py::module_& m) {
       .def_readwrite("description", &Experiment::description)
       .def_readonly("source", &Experiment::source)
       .def_readwrite("model_path", &Experiment::model_path)
+      .def_readonly("scene_path", &Experiment::scene_path, "The `scene:` track file, or ''.")
       .def_property(
           "seed", [](const Experiment& e) { return e.sim.seed; },
           [](Experiment& e, std::uint64_t v) { e.sim.seed = v; })
@@ -178,6 +179,9 @@ void bind_io(py::module_& m) {
       .def_readonly("max_speed_m_s", &RunSummary::max_speed_m_s)
       .def_readonly("max_tilt_rad", &RunSummary::max_tilt_rad)
       .def_readonly("crashed", &RunSummary::crashed)
+      .def_readonly("collided_with", &RunSummary::collided_with,
+                    "Status COLLIDED: what was touched (\"obstacle 'pillar' (box)\"); else ''.")
+      .def_readonly("scene_path", &RunSummary::scene_path)
       .def_readonly("closed_loop", &RunSummary::closed_loop, "ClosedLoopSummary or None.")
       .def_readonly("estimation", &RunSummary::estimation,
                     "EstimationSummary or None (experiments with `estimation:`).")

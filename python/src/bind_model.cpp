@@ -88,6 +88,8 @@ void bind_model(py::module_& m) {
       .def_readwrite("ground_effect_min_height_m", &VehicleSpec::ground_effect_min_height_m)
       .def_readwrite("rotors", &VehicleSpec::rotors,
                      "The rotors (a copy; assign a list to change).")
+      .def_readwrite("collision", &VehicleSpec::collision,
+                     "CollisionShape, or None for a sphere over the rotors.")
       .def("to_yaml", &vehicle_spec_to_yaml, "The spec as model-file YAML text.")
       .def("save", &save_vehicle_spec, py::arg("path"), "Writes the spec as a model file.");
 
@@ -118,6 +120,9 @@ void bind_model(py::module_& m) {
                              [](const VehicleModel& v) { return Mat3(v.inertia_kgm2()); })
       .def_property_readonly("body_drag_Ns_per_m",
                              [](const VehicleModel& v) { return Mat3(v.body_drag_Ns_per_m()); })
+      .def_property_readonly(
+          "collision_shape", [](const VehicleModel& v) { return v.collision_shape(); },
+          "The file's CollisionShape, or a sphere of the largest rotor-hub distance + 0.1 m.")
       .def_property_readonly(
           "spec", [](const VehicleModel& v) { return v.spec(); },
           "A copy of the spec the model was built from (edit it for variants).")

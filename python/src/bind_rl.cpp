@@ -59,6 +59,8 @@ void bind_vec_env(py::module_& m, const char* name) {
       .def_property_readonly("substeps", &E::substeps)
       .def_property_readonly("control_dt_s", &E::control_dt_s)
       .def_property_readonly("vehicle_radius_m", &E::vehicle_radius_m)
+      .def_property_readonly("collision_shape", &E::collision_shape,
+                             "What touches gates and obstacles (CollisionShape).")
       .def_property_readonly("observation_float32", &E::observation_float32)
       .def_property_readonly("normalized_actions",
                              [](const E& e) { return e.config().normalized_actions; })

@@ -76,6 +76,8 @@ void bind_sim(py::module_& m) {
              "A state that cannot be integrated (a zero quaternion written into the view).")
       .value("INVALID_INPUT", StepStatus::kInvalidInput,
              "A batch lane's rotor-speed reference or wind was not finite.")
+      .value("COLLIDED", StepStatus::kCollided,
+             "The collision shape touched a gate's frame or an obstacle of the scene.")
       .value("CONTROLLER_FAILED", StepStatus::kControllerFailed,
              "The controller threw or returned non-finite output (ClosedLoop.failure_message).");
 
@@ -352,6 +354,14 @@ void bind_sim(py::module_& m) {
           "plus 'total'.")
       .def_property_readonly("contact", [](const Simulator& s) { return s.contact(); })
       .def_property_readonly("status", &Simulator::status)
+      .def(
+          "set_scene",
+          [](Simulator& s, std::shared_ptr<Track> scene) {
+            s.set_scene(std::shared_ptr<const Track>(std::move(scene)));
+          },
+          py::arg("scene"),
+          "Gates and obstacles the vehicle may not touch (a Track, or None): a step into one is "
+          "refused with status COLLIDED, failure_message naming the object.")
       .def_property_readonly("failure_message", &Simulator::failure_message)
       .def(
           "set_wind", [](Simulator& s, py::handle w) { s.set_wind(to_fixed<3>(w, "set_wind")); },

@@ -7,6 +7,7 @@
 #include "bindings.hpp"
 #include "dronetwin/config/track_loader.hpp"
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/world/collision_shape.hpp"
 #include "dronetwin/world/ray_cast.hpp"
 
 namespace dronetwin::python {
@@ -42,9 +43,45 @@ py::array_t<double> rows_of_three(py::handle obj, const char* what) {
 }  // namespace
 
 void bind_world(py::module_& m) {
-  py::class_<Track>(m, "Track",
-                    "A racing track / world: gates in racing order, the arena, obstacles "
-                    "(docs/track-format.md). Read with load_track().")
+  py::class_<CollisionShape> shape(
+      m, "CollisionShape",
+      "What stands for a vehicle when it touches the scene: a sphere or a box fixed in the body "
+      "frame (docs/model-format.md, `collision:`).\n\n"
+      "    spec.collision = dronetwin.CollisionShape.box([0.3, 0.3, 0.08])");
+  shape
+      .def_static(
+          "sphere",
+          [](double r, py::handle c) {
+            return CollisionShape::sphere(
+                r, c.is_none() ? Vec3(Vec3::Zero()) : to_fixed<3>(c, "center_B_m"));
+          },
+          py::arg("radius_m"), py::arg("center_B_m") = py::none())
+      .def_static(
+          "box",
+          [](py::handle h, py::handle c) {
+            return CollisionShape::box(
+                to_fixed<3>(h, "half_size_m"),
+                c.is_none() ? Vec3(Vec3::Zero()) : to_fixed<3>(c, "center_B_m"));
+          },
+          py::arg("half_size_m"), py::arg("center_B_m") = py::none())
+      .def_property_readonly(
+          "kind", [](const CollisionShape& c) { return std::string(collision_kind_name(c.kind)); })
+      .def_readonly("radius_m", &CollisionShape::radius_m)
+      .def_property_readonly("half_size_m",
+                             [](const CollisionShape& c) { return copy_of(c.half_size_m); })
+      .def_property_readonly("center_B_m",
+                             [](const CollisionShape& c) { return copy_of(c.center_B_m); })
+      .def_property_readonly("bounding_radius_m", &CollisionShape::bounding_radius_m)
+      .def("__repr__", [](const CollisionShape& c) {
+        return c.kind == CollisionShape::Kind::kSphere
+                   ? detail::concat("CollisionShape.sphere(", c.radius_m, ")")
+                   : detail::concat("CollisionShape.box([", c.half_size_m.transpose(), "])");
+      });
+
+  py::class_<Track, std::shared_ptr<Track>>(
+      m, "Track",
+      "A racing track / world: gates in racing order, the arena, obstacles "
+      "(docs/track-format.md). Read with load_track().")
       .def_readonly("name", &Track::name)
       .def_readonly("closed", &Track::closed)
       .def_property_readonly("num_gates", [](const Track& t) { return t.gates.size(); })

@@ -32,6 +32,7 @@
 #include "dronetwin/logging/text_file.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/sensors/sensor_suite.hpp"
+#include "dronetwin/world/collision.hpp"
 
 namespace dronetwin {
 
@@ -279,6 +280,8 @@ std::string summary_to_json(const RunSummary& s) {
       .num("duration_s", s.duration_s)
       .str("status", status_name(s.status))
       .str("failure_message", s.failure_message)
+      .str("scene_path", s.scene_path)
+      .str("collided_with", s.collided_with)
       .raw("final_state", state.done())
       .num("min_z_m", s.min_z_m)
       .num("max_z_m", s.max_z_m)
@@ -438,6 +441,16 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   } catch (const InvalidArgument& err) {
     throw InvalidArgument(e.source + ": initial_state: " + err.what());
   }
+  if (e.scene != nullptr) {
+    // A start inside an object is a mistake in the files, not a crash to fly into.
+    const SceneContact at_start =
+        find_scene_contact(*e.scene, model->collision_shape(), sim.state(), sim.state());
+    require(!at_start, e.source, ": initial_state: the vehicle's collision shape (",
+            collision_kind_name(model->collision_shape().kind), ", ", e.model_path,
+            ") starts inside ", describe_contact(*e.scene, at_start), " of the scene ",
+            e.scene_path);
+    sim.set_scene(e.scene);
+  }
   // Every experiment flies through ClosedLoop::run(): a controller input with its controller
   // and reference at its rate, an open-loop input as a schedule at the physics rate. Built before
   // any file is touched: a bad controller file throws here.
@@ -489,6 +502,7 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   // the end (logging/output_folder.hpp).
   std::vector<std::string> inputs{e.source, e.model_path};
   if (controller_input != nullptr) inputs.push_back(controller_input->controller_path);
+  if (e.scene != nullptr) inputs.push_back(e.scene_path);
   OutputFolder out(out_dir, {"log.csv", "log.json", "summary.json"}, inputs, overwrite, "run");
   const fs::path log_path = out.final_path("log.csv");
   const fs::path summary_path = out.final_path("summary.json");
@@ -499,6 +513,7 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   s.experiment_path = e.source;
   s.model_name = model->name();
   s.model_path = e.model_path;
+  s.scene_path = e.scene_path;
   s.seed = e.sim.seed;
   s.dt_s = e.sim.dt_s;
   s.integrator = e.sim.integrator;
@@ -540,6 +555,8 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   s.final_state = sim.state();
   s.final_rotor_speeds_rad_s = sim.rotor_speeds_rad_s();
   s.crashed = sim.contact().crashed;
+  if (result.status == StepStatus::kCollided)
+    s.collided_with = describe_contact(*e.scene, sim.data().failure.contact);
   s.touchdowns = sim.contact().touchdowns;
   s.max_touchdown_speed_m_s = sim.contact().max_touchdown_speed_m_s;
   s.log_rows = static_cast<std::int64_t>(log.rows_written());

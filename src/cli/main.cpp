@@ -98,6 +98,10 @@ void print_summary(const RunSummary& s) {
   std::cout << "  ground          " << (s.crashed ? "CRASHED" : "no crash") << ", touchdowns "
             << s.touchdowns << ", max touchdown speed " << fixed(s.max_touchdown_speed_m_s, 3)
             << " m/s\n";
+  if (!s.scene_path.empty())
+    std::cout << "  scene           " << s.scene_path << ", "
+              << (s.collided_with.empty() ? "nothing touched" : "COLLIDED with " + s.collided_with)
+              << "\n";
   if (s.closed_loop) {
     const ClosedLoopSummary& c = *s.closed_loop;
     std::cout << "  controller      " << c.controller_name << " (" << c.controller_path << "), "

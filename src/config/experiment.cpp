@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "dronetwin/config/controller_config.hpp"
+#include "dronetwin/config/track_loader.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/logging/text_file.hpp"
 #include "dronetwin/math/quaternion.hpp"
@@ -42,11 +43,11 @@ using Names = std::vector<std::string_view>;
 
 // ---- key tables -------------------------------------------------------------------------------
 
-const Names kTopLevelKeys = {"name",       "description",  "model",         "seed",
-                             "duration_s", "physics_dt_s", "integrator",    "motor_dynamics",
-                             "noise",      "wind_m_s",     "gravity_m_s2",  "disturbances",
-                             "ground",     "divergence",   "initial_state", "log",
-                             "metrics",    "input",        "sensors",       "estimation"};
+const Names kTopLevelKeys = {
+    "name",       "description",    "model",         "seed",     "duration_s",   "physics_dt_s",
+    "integrator", "motor_dynamics", "noise",         "wind_m_s", "gravity_m_s2", "disturbances",
+    "ground",     "divergence",     "initial_state", "log",      "metrics",      "input",
+    "sensors",    "estimation",     "scene"};
 const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
 const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
 const Names kBlockKeys = {"a", "b"};
@@ -1002,6 +1003,15 @@ Experiment parse_experiment(const std::string& yaml_text, const std::string& sou
       rd.fail(on_ref, "initial_state.on_reference",
               "the reference starts below the ground (z = " + format_number(r0.position_m.z()) +
                   " m at t = 0); set ground.enabled: false to start there");
+  }
+  if (top.has("scene")) {
+    e.scene_path =
+        resolve_file(rd, top.get("scene"), "scene", rd.string(top.get("scene"), "scene"), "scene");
+    try {
+      e.scene = std::make_shared<const Track>(load_track(e.scene_path));
+    } catch (const InvalidArgument& err) {
+      rd.fail(top.get("scene"), "scene", err.what());
+    }
   }
   check_experiment(e, source_name);
   // After the checks above, so that the physics step the sensor rates are checked against is

@@ -45,10 +45,13 @@ std::string format_double(double v) {
 
 // ---- key tables -------------------------------------------------------------------------------
 
-constexpr std::array<std::string_view, 7> kTopLevelKeys = {
+constexpr std::array<std::string_view, 8> kTopLevelKeys = {
     "name",           "mass_kg", "inertia_kgm2", "body_drag_Ns_per_m", "ground_effect_min_height_m",
-    "rotor_defaults", "rotors",
+    "rotor_defaults", "rotors",  "collision",
 };
+constexpr std::array<std::string_view, 4> kCollisionKeys = {"shape", "radius_m", "half_size_m",
+                                                            "center_m"};
+constexpr std::array<std::string_view, 2> kCollisionShapes = {"sphere", "box"};
 constexpr std::array<std::string_view, 5> kRequiredTopLevelKeys = {
     "name", "mass_kg", "inertia_kgm2", "body_drag_Ns_per_m", "rotors"};
 
@@ -200,6 +203,33 @@ void emit_mat3(YAML::Emitter& out, const Mat3& m) {
   out << YAML::EndSeq;
 }
 
+// `collision: {shape: sphere, radius_m: r}` or `{shape: box, half_size_m: [x, y, z]}`, each with
+// an optional `center_m` (body frame). The other shape's size key is an error, not ignored.
+CollisionShape read_collision(const Reader& rd, const YAML::Node& node) {
+  const Map m = rd.map(node, "collision", kCollisionKeys,
+                       "a map with the keys shape, radius_m (sphere) or half_size_m (box), "
+                       "center_m");
+  const bool sphere =
+      rd.choice(m.required("shape"), "collision.shape", kCollisionShapes, "collision shape") == 0;
+  const std::string_view size_key = sphere ? "radius_m" : "half_size_m";
+  const std::string_view other_key = sphere ? "half_size_m" : "radius_m";
+  if (m.has(other_key)) {
+    rd.fail(
+        m.get(other_key), m.path(other_key),
+        detail::concat("a ", sphere ? "sphere" : "box", " has no ", other_key, "; use ", size_key));
+  }
+  CollisionShape c;
+  c.kind = sphere ? CollisionShape::Kind::kSphere : CollisionShape::Kind::kBox;
+  if (sphere)
+    c.radius_m = rd.number(m.required("radius_m"), "collision.radius_m");
+  else
+    c.half_size_m = rd.fixed<3>(m.required("half_size_m"), "collision.half_size_m",
+                                "half extents along body x, y, z in m");
+  if (m.has("center_m"))
+    c.center_B_m = rd.fixed<3>(m.get("center_m"), "collision.center_m", "x, y, z in m, body frame");
+  return c;
+}
+
 }  // namespace
 
 // ---- public API -------------------------------------------------------------------------------
@@ -226,6 +256,7 @@ VehicleSpec parse_vehicle_spec(const std::string& yaml_text, const std::string& 
     spec.ground_effect_min_height_m =
         rd.number(top.get("ground_effect_min_height_m"), "ground_effect_min_height_m");
   }
+  if (top.has("collision")) spec.collision = read_collision(rd, top.get("collision"));
   RotorDefaults defaults;
   if (top.has("rotor_defaults")) defaults = read_rotor_defaults(rd, top.get("rotor_defaults"));
 
@@ -273,7 +304,23 @@ std::string vehicle_spec_to_yaml(const VehicleSpec& spec) {
       out << YAML::Key << std::string(key) << YAML::Value << format_double(r.*member);
     out << YAML::EndMap;
   }
-  out << YAML::EndSeq << YAML::EndMap;
+  out << YAML::EndSeq;
+  if (spec.collision) {
+    const CollisionShape& c = *spec.collision;
+    const bool sphere = c.kind == CollisionShape::Kind::kSphere;
+    out << YAML::Key << "collision" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "shape" << YAML::Value << std::string(collision_kind_name(c.kind));
+    if (sphere) {
+      out << YAML::Key << "radius_m" << YAML::Value << format_double(c.radius_m);
+    } else {
+      out << YAML::Key << "half_size_m" << YAML::Value;
+      emit_vec3(out, c.half_size_m);
+    }
+    out << YAML::Key << "center_m" << YAML::Value;
+    emit_vec3(out, c.center_B_m);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndMap;
   if (!out.good()) throw InvalidArgument("vehicle_spec_to_yaml: " + out.GetLastError());
   return "# Vehicle model written by dronetwin::save_vehicle_spec (format: "
          "docs/model-format.md).\n# Numbers are the shortest decimals that read back bit for "

@@ -73,10 +73,12 @@ Track parse_track(const std::string& yaml_text, const std::string& source_name) 
   const double frame =
       top.has("frame_width_m") ? rd.positive(top.get("frame_width_m"), "frame_width_m") : 0.1;
 
-  const YAML::Node gates = top.required("gates");
-  if (!gates.IsSequence() || gates.size() == 0)
-    rd.fail(gates, "gates",
-            "expected a list of at least one gate, got " + io_detail::describe(gates));
+  // No gates is a scene of obstacles (an experiment's `scene:`); the racing task asks for gates
+  // itself (rl::validate).
+  const YAML::Node gates =
+      top.has("gates") ? top.get("gates") : YAML::Node(YAML::NodeType::Sequence);
+  if (!gates.IsSequence())
+    rd.fail(gates, "gates", "expected a list of gates, got " + io_detail::describe(gates));
   std::set<std::string> names;
   for (std::size_t i = 0; i < gates.size(); ++i) {
     const std::string path = io_detail::item_path("gates", i);

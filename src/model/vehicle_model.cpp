@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -32,6 +33,19 @@ void require_finite(const VehicleSpec& s, const std::string& field, const Derive
 
 void require_finite(const VehicleSpec& s, const std::string& field, double v) {
   require(std::isfinite(v), where(s), ": ", field, ": expected a finite number, got ", v);
+}
+
+void validate_collision(const VehicleSpec& s, const CollisionShape& c) {
+  require_finite(s, "collision.center_m", c.center_B_m);
+  if (c.kind == CollisionShape::Kind::kSphere) {
+    require_finite(s, "collision.radius_m", c.radius_m);
+    require(c.radius_m > 0.0, where(s), ": collision.radius_m: expected > 0, got ", c.radius_m);
+  } else {
+    require_finite(s, "collision.half_size_m", c.half_size_m);
+    require(c.half_size_m.minCoeff() > 0.0, where(s),
+            ": collision.half_size_m: expected three numbers > 0, got [", c.half_size_m.transpose(),
+            "]");
+  }
 }
 
 void validate_rotor(const VehicleSpec& s, std::size_t i) {
@@ -112,6 +126,7 @@ VehicleModel::Validated VehicleModel::validate(VehicleSpec spec) {
   require_finite(s, "ground_effect_min_height_m", s.ground_effect_min_height_m);
   require(s.ground_effect_min_height_m > 0.0, where(s),
           ": ground_effect_min_height_m: expected > 0, got ", s.ground_effect_min_height_m);
+  if (s.collision) validate_collision(s, *s.collision);
   const auto n = s.rotors.size();
   require(n >= 1 && n <= static_cast<std::size_t>(kMaxRotors), where(s),
           ": rotors: expected between 1 and ", kMaxRotors, " rotors, got ", n);
@@ -159,6 +174,13 @@ VehicleModel::VehicleModel(Validated validated)
   const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod_w{Eigen::MatrixXd(wrench_)};
   wrench_pinv_ = cod_w.pseudoInverse();
   wrench_rank_ = static_cast<int>(cod_w.rank());
+  if (s.collision) {
+    collision_ = *s.collision;
+  } else {
+    double hub_m = 0.0;
+    for (int i = 0; i < nr; ++i) hub_m = std::max(hub_m, rotor(i).position_m.norm());
+    collision_ = CollisionShape::sphere(hub_m + 0.1);
+  }
 }
 
 RotorVector VehicleModel::hover_thrusts_N(double gravity_m_s2) const {

@@ -25,14 +25,6 @@ constexpr int kEnvsPerTask = 64;
 // Room for the previous action of any mode (rotor speeds: one per rotor).
 constexpr int kMaxActionSize = std::max(4, kMaxRotors);
 
-// Largest distance of a rotor hub from the body origin, plus a propeller radius: the sphere that
-// stands for the vehicle when nothing else is given.
-double rotor_extent_m(const VehicleModel& m) {
-  double r = 0.0;
-  for (int i = 0; i < m.num_rotors(); ++i) r = std::max(r, m.rotor(i).position_m.norm());
-  return r + 0.1;
-}
-
 }  // namespace
 
 template <class T>
@@ -53,8 +45,8 @@ VecEnv<T>::VecEnv(std::shared_ptr<const VehicleModel> model, EnvConfig config, i
   // validate() checked that this is a whole number.
   substeps_ = static_cast<int>(std::lround(1.0 / (config_.control_rate_hz * config_.sim.dt_s)));
   if (config_.observation.empty()) config_.observation = default_observation(config_.task);
-  vehicle_radius_m_ =
-      config_.vehicle_radius_m > 0.0 ? config_.vehicle_radius_m : rotor_extent_m(*model_);
+  collision_ = config_.vehicle_radius_m > 0.0 ? CollisionShape::sphere(config_.vehicle_radius_m)
+                                              : model_->collision_shape();
   const double g = config_.sim.environment.gravity_W_m_s2.norm();
   // Summed in a loop: Eigen's sum() over the dynamic-size rotor vector makes GCC 12 report a
   // false maybe-uninitialized in its AVX-512 reduction (-march=native builds).
@@ -88,6 +80,7 @@ VecEnv<T>::VecEnv(std::shared_ptr<const VehicleModel> model, EnvConfig config, i
   action_.assign(a, 0.0);
   previous_action_.assign(a, 0.0);
   start_position_.assign(3 * n, 0.0);
+  start_quaternion_.assign(4 * n, 0.0);
   invalid_action_.assign(n, 0);
   yaw_reference_.assign(n, 0.0);
   target_.assign(3 * n, 0.0);
@@ -463,6 +456,8 @@ void VecEnv<T>::step_impl(const A* actions) {
       const auto e = static_cast<std::size_t>(env);
       const Vec3 p = position(env);
       for (int k = 0; k < 3; ++k) start_position_[3 * e + static_cast<std::size_t>(k)] = p[k];
+      const Vec4 q = batch_->state(env).template segment<4>(state_index::kQuaternion);
+      for (int k = 0; k < 4; ++k) start_quaternion_[4 * e + static_cast<std::size_t>(k)] = q[k];
       take_action(env, actions + e * n);
     }
   });
@@ -529,20 +524,12 @@ void VecEnv<T>::evaluate(int env) {
     d_before = (p0 - g.center_m).norm();
     d_now = (p1 - g.center_m).norm();
     if (cause == EndCause::kNone) {
-      for (const Gate& other : track.gates) {
-        if (touches_frame(other, p0, p1, vehicle_radius_m_)) {
-          cause = EndCause::kGateFrame;
-          break;
-        }
-      }
-    }
-    if (cause == EndCause::kNone) {
-      for (const Obstacle& ob : track.obstacles) {
-        if (touches_obstacle(ob, p0, p1, vehicle_radius_m_)) {
-          cause = EndCause::kObstacle;
-          break;
-        }
-      }
+      const Vec4 q0(start_quaternion_[4 * e], start_quaternion_[4 * e + 1],
+                    start_quaternion_[4 * e + 2], start_quaternion_[4 * e + 3]);
+      const SceneContact contact = find_scene_contact(
+          track, collision_, p0, q0, p1, x.template segment<4>(state_index::kQuaternion));
+      if (contact.kind == SceneContact::Kind::kGate) cause = EndCause::kGateFrame;
+      if (contact.kind == SceneContact::Kind::kObstacle) cause = EndCause::kObstacle;
     }
     if (cause == EndCause::kNone && cross_gate(g, p0, p1) == GateCrossing::kThrough) {
       ++gates_now;
@@ -738,7 +725,7 @@ void VecEnv<T>::set_config(const EnvConfig& c) {
   const std::vector<ObservationPiece> pieces = config_.observation;
   config_ = c;
   config_.observation = pieces;
-  if (c.vehicle_radius_m > 0.0) vehicle_radius_m_ = c.vehicle_radius_m;
+  if (c.vehicle_radius_m > 0.0) collision_ = CollisionShape::sphere(c.vehicle_radius_m);
   // Gate indices stay valid on a track with fewer gates.
   const int gates = static_cast<int>(config_.track.gates.size());
   if (config_.task == Task::kRacing)

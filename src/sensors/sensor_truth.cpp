@@ -10,7 +10,7 @@ SensorTruth make_sensor_truth(const Simulator& sim, const StateVector& previous_
   t.state = sim.state();
   t.gravity_W_m_s2 = sim.config().environment.gravity_W_m_s2;
   t.rotor_speed_rad_s = sim.rotor_speeds_rad_s();
-  t.scene = scene;
+  t.scene = scene != nullptr ? scene : sim.scene();
   if (sim.contact().in_contact && sim.step_count() > 0) {
     const double dt = sim.config().dt_s;
     t.acceleration_W_m_s2 =

@@ -168,6 +168,11 @@ void Simulator::set_disturbances(const DisturbanceSwitches& switches) {
   kernel_ = std::make_shared<const ForceKernel<double>>(*model_, ForceTerms::of(switches));
 }
 
+void Simulator::set_scene(std::shared_ptr<const Track> scene) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_scene");
+  scene_ = std::move(scene);
+}
+
 void Simulator::set_wind(const Vec3& wind_W_m_s) {
   const SingleThreadGuard::Hold hold(guard_, "Simulator::set_wind");
   require(wind_W_m_s.allFinite(), "wind: expected finite numbers, got [", wind_W_m_s.transpose(),
@@ -209,6 +214,12 @@ std::string Simulator::failure_message() const {
                             "): its quaternion is not a rotation");
     case StepStatus::kInvalidInput:
       return "an input was not finite";
+    case StepStatus::kCollided:
+      return detail::concat(
+          "collided with ",
+          scene_ ? describe_contact(*scene_, f.contact) : std::string("the scene"), " during step ",
+          f.step, " (t = ", f.time_s - config_.dt_s, " to ", f.time_s, " s) near position [",
+          f.at_m.transpose(), "] m");
   }
   return {};
 }
@@ -232,7 +243,12 @@ StepResult Simulator::step_unchecked() {
   ContactState contact = data_.contact;
   resolve_ground_contact(config_.ground, data_.state, config_.dt_s, next, contact);
 
-  const StepStatus status = check_state(next);
+  StepStatus status = check_state(next);
+  SceneContact scene_contact;
+  if (status == StepStatus::kOk && scene_ != nullptr) {
+    scene_contact = find_scene_contact(*scene_, model_->collision_shape(), data_.state, next);
+    if (scene_contact) status = StepStatus::kCollided;
+  }
   if (status != StepStatus::kOk) {
     using namespace state_index;
     data_.status = status;
@@ -241,6 +257,8 @@ StepResult Simulator::step_unchecked() {
     data_.failure.position_m = next.segment<3>(kPosition).norm();
     data_.failure.speed_m_s = next.segment<3>(kVelocity).norm();
     data_.failure.angular_speed_rad_s = next.segment<3>(kAngularVelocity).norm();
+    data_.failure.at_m = next.segment<3>(kPosition);
+    data_.failure.contact = scene_contact;
     const double q2 = data_.state.segment<4>(kQuaternion).squaredNorm();
     data_.failure.started_invalid = !data_.state.allFinite() || !(q2 >= 0.25 && q2 <= 4.0);
     return {status, 0};

@@ -637,6 +637,9 @@ const std::vector<BadCase> kBadCases = {
      {"input.control_rate_hz: expected a rate that divides the physics rate", "got 1e-300 Hz"}},
     {"disturbance_key_typo.yaml",
      {"disturbances: unknown key 'groundeffect'", "did you mean 'ground_effect'?"}},
+    {"missing_scene_file.yaml", {"scene: scene file 'no_such_scene.yaml' not found", "line 5"}},
+    {"scene_degenerate_obstacle.yaml",
+     {"scene: ", "flat_box.yaml: obstacles[0].size: expected three positive extents", "line 5"}},
     {"dt_too_large.yaml", {"physics_dt_s: expected a step in (0, 0.1] s, got 0.5"}},
     {"every_n_steps_zero.yaml", {"log.every_n_steps: expected an integer >= 1, got 0"}},
     {"first_segment_not_at_zero.yaml", {"input.segments[0].start_s: expected 0", "got 0.5"}},
@@ -715,7 +718,7 @@ TEST(BadExperimentCorpus, CorpusIsFullyCovered) {
   std::set<std::string> covered;
   for (const BadCase& c : kBadCases) covered.insert(c.file);
   EXPECT_EQ(files, covered);
-  EXPECT_EQ(files.size(), 37u);
+  EXPECT_EQ(files.size(), 39u);
   EXPECT_GE(files.size(), 10u);
 }
 

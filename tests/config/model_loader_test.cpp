@@ -39,6 +39,12 @@ using BadCase = test::BadFileCase;
 
 // One row per file of tests/data/bad. A new file must get a row (CorpusIsFullyCovered checks).
 const std::vector<BadCase> kBadCases = {
+    {"collision_box_zero_height.yaml", {"collision.half_size_m: expected three numbers > 0"}},
+    {"collision_missing_size.yaml", {"collision: missing required key 'half_size_m'"}},
+    {"collision_negative_radius.yaml", {"collision.radius_m: expected > 0, got -0.5"}},
+    {"collision_sphere_with_half_size.yaml",
+     {"collision.half_size_m: a sphere has no half_size_m; use radius_m", "line 7"}},
+    {"collision_unknown_shape.yaml", {"collision.shape: unknown collision shape 'cube'", "box"}},
     {"default_not_a_number.yaml",
      {"rotor_defaults.thrust_coefficients[1]: expected a number, got 'x'", "line 8"}},
     {"document_is_list.yaml", {"expected a map", "got a sequence of 2 items"}},
@@ -108,7 +114,7 @@ TEST(BadModelCorpus, IsFullyCovered) {
   std::set<std::string> in_table;
   for (const BadCase& c : kBadCases) in_table.insert(c.file);
   EXPECT_EQ(in_table.size(), kBadCases.size()) << "a file appears twice in kBadCases";
-  EXPECT_EQ(on_disk.size(), 38u) << "tests/data/bad changed: update kBadCases and this count";
+  EXPECT_EQ(on_disk.size(), 43u) << "tests/data/bad changed: update kBadCases and this count";
   EXPECT_EQ(on_disk, in_table);
 }
 
@@ -185,6 +191,15 @@ void expect_bitwise_equal(const VehicleSpec& a, const VehicleSpec& b) {
   expect_same_bits(a.inertia_kgm2.data(), b.inertia_kgm2.data(), 9, "inertia_kgm2");
   expect_same_bits(a.body_drag_Ns_per_m.data(), b.body_drag_Ns_per_m.data(), 9, "body_drag");
   expect_same_bits(&a.ground_effect_min_height_m, &b.ground_effect_min_height_m, 1, "h_min");
+  ASSERT_EQ(a.collision.has_value(), b.collision.has_value());
+  if (a.collision) {
+    EXPECT_EQ(a.collision->kind, b.collision->kind);
+    expect_same_bits(&a.collision->radius_m, &b.collision->radius_m, 1, "collision.radius_m");
+    expect_same_bits(a.collision->half_size_m.data(), b.collision->half_size_m.data(), 3,
+                     "collision.half_size_m");
+    expect_same_bits(a.collision->center_B_m.data(), b.collision->center_B_m.data(), 3,
+                     "collision.center_m");
+  }
   ASSERT_EQ(a.rotors.size(), b.rotors.size());
   for (std::size_t i = 0; i < a.rotors.size(); ++i) {
     const RotorParams& x = a.rotors[i];
@@ -243,6 +258,25 @@ TEST(ModelLoader, SaveLoadRoundTripIsBitwiseForShippedModels) {
     // The saved file is itself a valid model.
     EXPECT_NO_THROW((void)load_vehicle_model(tmp.path()));
   }
+}
+
+TEST(ModelLoader, CollisionShapesRoundTripAndReachTheModel) {
+  VehicleSpec spec = load_vehicle_spec(model_path("qdrone2.yaml"));
+  for (const CollisionShape& shape :
+       {CollisionShape::box(Vec3(0.31, 0.27, 0.1 / 3), Vec3(0.0, 0.0, 0.021)),
+        CollisionShape::sphere(0.33)}) {
+    spec.collision = shape;
+    const TempFile tmp;
+    save_vehicle_spec(spec, tmp.path());
+    const VehicleSpec reloaded = load_vehicle_spec(tmp.path());
+    expect_bitwise_equal(spec, reloaded);
+    const VehicleModel model(reloaded);
+    EXPECT_EQ(model.collision_shape().kind, shape.kind);
+    EXPECT_EQ(model.collision_shape().half_size_m, shape.half_size_m);
+  }
+  // Without `collision:` the file writes none and the model has its rotor sphere.
+  spec.collision.reset();
+  EXPECT_EQ(vehicle_spec_to_yaml(spec).find("collision"), std::string::npos);
 }
 
 TEST(ModelLoader, RoundTripKeepsAwkwardNumbersBitForBit) {

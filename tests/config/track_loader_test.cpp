@@ -71,6 +71,23 @@ obstacles:
   EXPECT_EQ(t.gates[0].frame_width_m, 0.1);
 }
 
+TEST(TrackLoader, ASceneNeedsNoGates) {
+  // An experiment's scene of obstacles alone (the racing task asks for gates itself).
+  const Track t = parse_track(
+      "name: room\narena: {min: [-5, -5, -1], max: [5, 5, 5]}\nstart: {position: [0, 0, 1]}\n"
+      "obstacles: [{name: pillar, type: cylinder, center: [2, 0, 1], radius_m: 0.2, "
+      "height_m: 2}]\n",
+      "room.yaml");
+  EXPECT_TRUE(t.gates.empty());
+  ASSERT_EQ(t.obstacles.size(), 1u);
+  EXPECT_EQ(t.obstacles[0].name, "pillar");
+  EXPECT_EQ(parse_track("name: empty\narena: {min: [-1, -1, -1], max: [1, 1, 1]}\n"
+                        "start: {position: [0, 0, 0]}\ngates: []\n",
+                        "empty.yaml")
+                .gates.size(),
+            0u);
+}
+
 TEST(TrackLoader, MalformedFilesNameTheField) {
   const std::string head =
       "name: t\narena: {min: [-5, -5, -1], max: [5, 5, 5]}\nstart: {position: [0, 0, 1]}\n";
@@ -80,7 +97,7 @@ TEST(TrackLoader, MalformedFilesNameTheField) {
       {head + "gates: [{position: [2, 0], width_m: 1, height_m: 1}]\n", "gates[0].position"},
       {head + "gates: [{position: [2, 0, 1], width_m: 1}]\n", "height_m"},
       {head + "gates: [{position: [2, 0, 1], width_m: 1, height_m: 1, colour: red}]\n", "colour"},
-      {head + "gates: []\n", "gates"},
+      {head + "gates: {a: 1}\n", "gates: expected a list of gates"},
       {head + "gates: [{position: [9, 0, 1], width_m: 1, height_m: 1}]\n", "outside the arena"},
       {head + "gates: [{name: a, position: [2, 0, 1], width_m: 1, height_m: 1}, {name: a, "
               "position: [3, 0, 1], width_m: 1, height_m: 1}]\n",

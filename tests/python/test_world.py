@@ -42,3 +42,55 @@ def test_bad_arrays_and_rays_are_named():
         dt.cast_rays(track, good, np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 2.0]]), 10.0)
     with pytest.raises(ValueError, match="max_range_m: expected a positive number"):
         dt.cast_rays(track, good, good, -1.0)
+
+
+def pillar_scene():
+    return dt.load_track(source_path("tests", "data", "scenes", "pillar_and_crate.yaml"))
+
+
+def drifting(model):
+    """At 1.2 m, 2 m/s along +x, rotors stopped, no gravity: a straight line into the pillar."""
+    config = dt.SimConfig()
+    env = config.environment
+    env.gravity_W_m_s2 = np.zeros(3)
+    config.environment = env
+    sim = dt.Simulator(model, config)
+    state = dt.Simulator.hover_state([0.0, 0.0, 1.2])
+    state[3] = 2.0
+    sim.reset(state)
+    return sim
+
+
+def test_a_simulator_with_a_scene_stops_at_the_pillar(qdrone2):
+    shape = qdrone2.collision_shape
+    assert shape.kind == "sphere"
+    hub_m = max(np.linalg.norm(r.position_m) for r in qdrone2.rotors)
+    assert shape.radius_m == pytest.approx(hub_m + 0.1, rel=1e-15)
+    sim = drifting(qdrone2)
+    sim.set_scene(pillar_scene())
+    result = sim.step(3000)
+    assert result.status == dt.StepStatus.COLLIDED
+    assert "collided with obstacle 'pillar' (cylinder)" in sim.failure_message
+    # Stopped short of the pillar's surface (x = 1.8) by less than one step's travel.
+    front = sim.state[0] + shape.radius_m
+    assert 1.8 - 0.01 < front <= 1.8
+    # Without the scene the same flight passes through.
+    free = drifting(qdrone2)
+    assert free.step(3000).ok
+
+
+def test_a_box_from_the_spec_reaches_further(qdrone2):
+    spec = qdrone2.spec
+    spec.collision = dt.CollisionShape.box([0.5, 0.2, 0.05])
+    model = dt.VehicleModel(spec)
+    assert model.collision_shape.kind == "box"
+    assert list(model.collision_shape.half_size_m) == [0.5, 0.2, 0.05]
+    sim = drifting(model)
+    sim.set_scene(pillar_scene())
+    assert sim.step(3000).status == dt.StepStatus.COLLIDED
+    assert 1.8 - 0.01 < sim.state[0] + 0.5 <= 1.8
+    assert "collision:" in spec.to_yaml()
+    with pytest.raises(ValueError, match="collision.half_size_m: expected three numbers > 0"):
+        bad = qdrone2.spec
+        bad.collision = dt.CollisionShape.box([0.5, 0.0, 0.05])
+        dt.VehicleModel(bad)

@@ -16,6 +16,7 @@
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/math/segment_distance.hpp"
 #include "dronetwin/noise/random.hpp"
+#include "world/distance_fields.hpp"
 
 namespace dronetwin {
 namespace {
@@ -96,35 +97,8 @@ TEST(RayCast, GateOpeningFramesAndBars) {
 
 // ---- random rays against sphere tracing --------------------------------------------------------
 
-double sdf_obstacle(const Obstacle& ob, const Vec3& p) {
-  const Vec3 q = p - ob.center_m;
-  switch (ob.shape) {
-    case Obstacle::Shape::kBox: {
-      const Vec3 e = q.cwiseAbs() - ob.half_size_m;
-      return e.cwiseMax(0.0).norm() + std::min(e.maxCoeff(), 0.0);
-    }
-    case Obstacle::Shape::kCylinder: {
-      const Eigen::Vector2d e(q.head<2>().norm() - ob.half_size_m[0],
-                              std::abs(q[2]) - ob.half_size_m[2]);
-      return e.cwiseMax(0.0).norm() + std::min(e.maxCoeff(), 0.0);
-    }
-    case Obstacle::Shape::kSphere:
-      return q.norm() - ob.half_size_m[0];
-  }
-  return 1e300;
-}
-
-double sdf_frame(const Gate& g, const Vec3& p) {
-  const double bar = 0.5 * g.frame_width_m;
-  const Vec3 y = (0.5 * g.width_m + bar) * g.width_axis(),
-             z = (0.5 * g.height_m + bar) * g.up_axis();
-  const Vec3& c = g.center_m;
-  const Vec3 k[4] = {c + y + z, c - y + z, c - y - z, c + y - z};
-  double d = 1e300;
-  for (int i = 0; i < 4; ++i)
-    d = std::min(d, math::point_segment_distance(p, k[i], k[(i + 1) % 4]) - bar);
-  return d;
-}
+using test::sdf_frame;
+using test::sdf_obstacle;
 
 // Sphere tracing: the first t where the field is below 1e-12, kNoHit past `range`; `ambiguous`
 // when the march crept along a surface (closer than 1e-6) without settling, as at a tangent.

@@ -93,6 +93,8 @@ struct RunSummary {
   std::string experiment_path;
   std::string model_name;
   std::string model_path;
+  /// The experiment's scene file; empty without one.
+  std::string scene_path;
   std::uint64_t seed = 0;
   double dt_s = 0.0;
   Integrator integrator = Integrator::kRk4;
@@ -115,6 +117,8 @@ struct RunSummary {
   /// Largest angle between body z and world z, rad.
   double max_tilt_rad = 0.0;
   bool crashed = false;
+  /// Status collided: what the vehicle touched ("obstacle 'pillar' (box)"); empty otherwise.
+  std::string collided_with;
   int touchdowns = 0;
   double max_touchdown_speed_m_s = 0.0;
 

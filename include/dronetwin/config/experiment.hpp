@@ -41,6 +41,7 @@
 #include "dronetwin/model/vehicle_model.hpp"
 #include "dronetwin/sensors/sensor_suite.hpp"
 #include "dronetwin/sim/sim_config.hpp"
+#include "dronetwin/world/track.hpp"
 
 namespace dronetwin {
 
@@ -188,6 +189,11 @@ struct Experiment {
   /// `estimation:` in the file: an error-state EKF on the sensors (estimation/sensor_fusion.hpp),
   /// logged as est_*; with controller_input: estimate the controller flies on it. Needs sensors.
   std::optional<EstimationSettings> estimation;
+  /// `scene:` in the file: a track file (docs/track-format.md) whose gates and obstacles the
+  /// vehicle may not touch (the run ends with status collided, naming the object) and which the
+  /// range finder, optical flow and depth camera see. Resolved like model_path; empty: none.
+  std::string scene_path;
+  std::shared_ptr<const Track> scene;
 
   /// Run settings for the Simulator, validated (InvalidArgument naming the field otherwise).
   SimConfig sim_config() const;

@@ -22,6 +22,7 @@
 // kernel. For a new validated model, copy the VehicleSpec, edit it, and build a VehicleModel.
 
 #include <array>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -29,6 +30,7 @@
 #include "dronetwin/core/scalar.hpp"
 #include "dronetwin/core/types.hpp"
 #include "dronetwin/model/rotor_params.hpp"
+#include "dronetwin/world/collision_shape.hpp"
 
 namespace dronetwin {
 
@@ -127,6 +129,9 @@ struct VehicleSpec {
   /// Floor for the rotor height h in the ground-effect term C_G T / h^2, m.
   double ground_effect_min_height_m = 0.023;
   std::vector<RotorParams> rotors;
+  /// `collision:` of the file: the shape that touches the scene (world/collision.hpp); empty:
+  /// VehicleModel::collision_shape() puts a sphere over the rotors.
+  std::optional<CollisionShape> collision;
 };
 
 /// 4 x N allocation matrix: [T; tau_x; tau_y; tau_z] = A * rotor thrusts.
@@ -170,6 +175,10 @@ class VehicleModel : public VehicleModelTpl<double> {
   /// T(min speed) <= hover thrust <= T(max speed).
   bool can_hover(double gravity_m_s2 = 9.81) const;
 
+  /// The spec's collision shape, or else a sphere about the body origin of radius: the largest
+  /// rotor-hub distance plus 0.1 m (a propeller's radius on a QDrone2-size vehicle).
+  const CollisionShape& collision_shape() const { return collision_; }
+
   /// Rotor thrusts for generalized forces u = [T, tau_x, tau_y, tau_z] (A^+ u), N.
   RotorVector thrusts_for(const GeneralizedForce& u) const;
 
@@ -185,6 +194,7 @@ class VehicleModel : public VehicleModelTpl<double> {
   WrenchMatrix wrench_;
   WrenchInverse wrench_pinv_;
   int wrench_rank_ = 0;
+  CollisionShape collision_;
 };
 
 }  // namespace dronetwin

@@ -45,6 +45,7 @@
 #include "dronetwin/rl/env_config.hpp"
 #include "dronetwin/rl/episode.hpp"
 #include "dronetwin/rl/observation.hpp"
+#include "dronetwin/world/collision.hpp"
 
 namespace dronetwin::rl {
 
@@ -63,7 +64,14 @@ class VecEnv {
   double control_dt_s() const { return substeps_ * config_.sim.dt_s; }
   const EnvConfig& config() const { return config_; }
   const VehicleModel& model() const { return *model_; }
-  double vehicle_radius_m() const { return vehicle_radius_m_; }
+  /// What touches gates and obstacles: a sphere of EnvConfig::vehicle_radius_m when that is
+  /// set, else the model's collision shape (VehicleModel::collision_shape()).
+  const CollisionShape& collision_shape() const { return collision_; }
+  /// The sphere's radius, or the radius of a sphere about the body origin holding the box.
+  double vehicle_radius_m() const {
+    return collision_.kind == CollisionShape::Kind::kSphere ? collision_.radius_m
+                                                            : collision_.bounding_radius_m();
+  }
 
   /// The action box (physical units; with normalized_actions the accepted box is [-1, 1] and
   /// these are what -1 and +1 mean).
@@ -155,7 +163,7 @@ class VecEnv {
   int action_size_ = 0;
   int observation_size_ = 0;
   int substeps_ = 0;
-  double vehicle_radius_m_ = 0.0;
+  CollisionShape collision_;
   double hover_thrust_N_ = 0.0;
   RotorVector hover_speeds_;
   std::vector<PieceSlice> layout_;
@@ -172,7 +180,7 @@ class VecEnv {
   std::vector<std::uint64_t> key_;
   std::vector<std::int64_t> episode_;
   // Per env: this and the previous action (physical units), position before the step.
-  std::vector<double> action_, previous_action_, start_position_;
+  std::vector<double> action_, previous_action_, start_position_, start_quaternion_;
   std::vector<std::uint8_t> invalid_action_;
   std::vector<double> yaw_reference_, target_, time_offset_;
   std::vector<std::int32_t> next_gate_, gates_passed_, laps_;

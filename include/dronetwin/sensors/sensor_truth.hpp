@@ -28,7 +28,8 @@ struct SensorTruth {
 /// derivative at this instant; in ground contact (where the contact is resolved after the step,
 /// dynamics/ground.hpp) they are the step's own change of velocity and rates over dt, so that an
 /// accelerometer resting on the ground reads +g and a touchdown shows as the jolt it is.
-/// `previous_state` is the state one step earlier (ignored at step 0).
+/// `previous_state` is the state one step earlier (ignored at step 0). The rays see `scene`, or
+/// the simulator's own (Simulator::set_scene) when it is null.
 SensorTruth make_sensor_truth(const Simulator& sim, const StateVector& previous_state,
                               const Track* scene = nullptr);
 

@@ -27,6 +27,10 @@
 // running and throw SimulationError (Python RuntimeError) instead of mixing the two; the
 // single-step step() notices another thread's step(n), run or reset (one relaxed load).
 //
+// Scene: with set_scene() a step whose motion brings the model's collision shape into a gate's
+// frame or an obstacle (world/collision.hpp) is refused like a diverged one, with status
+// kCollided and a failure_message() naming the object.
+//
 // Trap: a step that produces a non-finite or out-of-bounds state commits nothing (state, rotor
 // speeds, contact, noise and time stay as they were); the simulator enters the failed state
 // (status() and failure_message() say why) and step() throws until reset().
@@ -46,6 +50,8 @@
 #include "dronetwin/noise/ornstein_uhlenbeck.hpp"
 #include "dronetwin/noise/random.hpp"
 #include "dronetwin/sim/sim_config.hpp"
+#include "dronetwin/world/collision.hpp"
+#include "dronetwin/world/track.hpp"
 
 namespace dronetwin {
 
@@ -56,6 +62,7 @@ enum class StepStatus {
   kControllerFailed,  ///< the controller flying it threw or returned non-finite output
   kInvalidState,      ///< a state that cannot be integrated (a zero quaternion)
   kInvalidInput,      ///< a batch lane's rotor-speed reference or wind was not finite
+  kCollided,          ///< the collision shape touched an object of the scene (set_scene)
 };
 
 constexpr std::string_view status_name(StepStatus s) {
@@ -72,6 +79,8 @@ constexpr std::string_view status_name(StepStatus s) {
       return "invalid_state";
     case StepStatus::kInvalidInput:
       return "invalid_input";
+    case StepStatus::kCollided:
+      return "collided";
   }
   return "unknown";
 }
@@ -84,9 +93,13 @@ struct StepFailure {
   std::int64_t step = 0;
   /// |p|, |v|, |w| of the refused state (NaN when it was non-finite).
   double position_m = 0.0, speed_m_s = 0.0, angular_speed_rad_s = 0.0;
+  /// Position the refused step would have reached, m.
+  Vec3 at_m = Vec3::Zero();
   /// True when the state before the step was already invalid (non-finite, or a quaternion far
   /// from unit): written directly through mutable_data() or a Python view, not produced by a step.
   bool started_invalid = false;
+  /// What the collision shape touched (kCollided): Track::gates or Track::obstacles and index.
+  SceneContact contact;
 };
 
 /// Everything that changes while a simulator runs. Plain data: no heap, copyable as bytes.
@@ -184,6 +197,10 @@ class Simulator {
   void set_wind(const Vec3& wind_W_m_s);
   void set_disturbances(const DisturbanceSwitches& switches);
   void set_noise_enabled(bool enabled);
+  /// Gates and obstacles the vehicle may not touch (null: none, the default). Kept over reset();
+  /// copies of the simulator share it.
+  void set_scene(std::shared_ptr<const Track> scene);
+  const Track* scene() const { return scene_.get(); }
   /// Recomputes measured_state() from SimData::state and the noise (for code that wrote the state
   /// through mutable_data()).
   void refresh_measured_state();
@@ -208,6 +225,7 @@ class Simulator {
   std::shared_ptr<const ForceKernel<double>> kernel_;
   /// Scratch of the current step (the rotor-speed dependent terms); not state.
   HeldRotorTerms<double> held_;
+  std::shared_ptr<const Track> scene_;
   SimData data_;
   SingleThreadGuard guard_;
 };
