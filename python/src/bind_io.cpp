@@ -183,6 +183,18 @@ void bind_io(py::module_& m) {
                     "Status COLLIDED: what was touched (\"obstacle 'pillar' (box)\"); else ''.")
       .def_readonly("scene_path", &RunSummary::scene_path)
       .def_readonly("closed_loop", &RunSummary::closed_loop, "ClosedLoopSummary or None.")
+      .def_property_readonly(
+          "depth_frames",
+          [](const RunSummary& s) {
+            py::list out;
+            for (const DepthFramesSummary& d : s.depth_frames)
+              out.append(
+                  py::dict(py::arg("name") = d.name, py::arg("path") = d.path,
+                           py::arg("shape") = py::make_tuple(d.frames, d.height_px, d.width_px)));
+            return out;
+          },
+          "One dict per depth camera: name, path of its <name>.npy (numpy.load it), shape "
+          "(frames, height, width).")
       .def_readonly("estimation", &RunSummary::estimation,
                     "EstimationSummary or None (experiments with `estimation:`).")
       .def_readonly("log_rows", &RunSummary::log_rows)

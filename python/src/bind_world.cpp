@@ -55,7 +55,8 @@ void bind_world(py::module_& m) {
             return CollisionShape::sphere(
                 r, c.is_none() ? Vec3(Vec3::Zero()) : to_fixed<3>(c, "center_B_m"));
           },
-          py::arg("radius_m"), py::arg("center_B_m") = py::none())
+          py::arg("radius_m"), py::arg("center_B_m") = py::none(),
+          "A sphere of radius_m (m) centred at center_B_m (body frame, default the origin).")
       .def_static(
           "box",
           [](py::handle h, py::handle c) {
@@ -63,7 +64,9 @@ void bind_world(py::module_& m) {
                 to_fixed<3>(h, "half_size_m"),
                 c.is_none() ? Vec3(Vec3::Zero()) : to_fixed<3>(c, "center_B_m"));
           },
-          py::arg("half_size_m"), py::arg("center_B_m") = py::none())
+          py::arg("half_size_m"), py::arg("center_B_m") = py::none(),
+          "A box of half extents half_size_m along the body axes (m), centred at center_B_m "
+          "(body frame, default the origin).")
       .def_property_readonly(
           "kind", [](const CollisionShape& c) { return std::string(collision_kind_name(c.kind)); })
       .def_readonly("radius_m", &CollisionShape::radius_m)

@@ -17,6 +17,7 @@
 #include <variant>
 #include <vector>
 
+#include "depth_recording.hpp"
 #include "dronetwin/app/controller_registry.hpp"
 #include "dronetwin/app/metrics.hpp"
 #include "dronetwin/app/open_loop_input.hpp"
@@ -95,11 +96,13 @@ class RunObserver final : public LoopObserver {
  public:
   RunObserver(const Experiment& e, const ControllerLoopInput* controller_input,
               const ControllerBase& controller, const Simulator& sim, const SensorSuite& sensors,
-              const RunSensing* sensing, CsvLogWriter& log, RunSummary& summary)
+              const RunSensing* sensing, DepthRecording& depth, CsvLogWriter& log,
+              RunSummary& summary)
       : e_(e),
         input_(controller_input),
         sensors_(sensors),
         sensing_(sensing),
+        depth_(depth),
         log_(log),
         s_(summary),
         tracking_(e.sim.dt_s, e.metrics.window_s),
@@ -114,6 +117,7 @@ class RunObserver final : public LoopObserver {
   void observe(const ClosedLoop& loop) override {
     const Simulator& sim = loop.simulator();
     const StateVector& x = sim.state();
+    depth_.record(sim);
     if (sensing_ != nullptr && sensing_->fusion() != nullptr) {
       // The estimate against the truth at every step (RunSensing sensed this step already).
       const StateVector& est = sensing_->fusion()->estimate();
@@ -211,6 +215,7 @@ class RunObserver final : public LoopObserver {
       row_[k++] = r.stamp_s;
       for (int j = 0; j < r.size; ++j) row_[k++] = r.values[static_cast<std::size_t>(j)];
     }
+    depth_.write_columns(row_, k);
     if (sensing_ != nullptr && sensing_->fusion() != nullptr) {
       const StateVector& est = sensing_->fusion()->estimate();
       for (int i = 0; i < kStateSize; ++i) row_[k++] = est[i];
@@ -237,6 +242,7 @@ class RunObserver final : public LoopObserver {
   const ControllerLoopInput* input_;
   const SensorSuite& sensors_;
   const RunSensing* sensing_;
+  DepthRecording& depth_;
   double est_p2_ = 0.0, est_v2_ = 0.0, est_a2_ = 0.0;
   std::int64_t est_n_ = 0;
   CsvLogWriter& log_;
@@ -334,6 +340,19 @@ std::string summary_to_json(const RunSummary& s) {
         .integer("updates", es.updates)
         .boolean("controller_on_estimate", es.controller_on_estimate);
     j.raw("estimation", est.done());
+  }
+  if (!s.depth_frames.empty()) {
+    std::string frames = "[";
+    for (std::size_t i = 0; i < s.depth_frames.size(); ++i) {
+      const DepthFramesSummary& d = s.depth_frames[i];
+      JsonObject one(4);
+      one.str("name", d.name)
+          .str("path", d.path)
+          .raw("shape", detail::concat("[", d.frames, ", ", d.height_px, ", ", d.width_px, "]"))
+          .str("dtype", "float32");
+      frames += (i ? ", " : "") + one.done();
+    }
+    j.raw("depth_frames", frames + "]");
   }
   std::string warnings = "[";
   for (std::size_t i = 0; i < s.warnings.size(); ++i)
@@ -484,7 +503,7 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
       controller_input != nullptr ? controller->diagnostic_names() : std::vector<std::string>{};
   LogLayout layout{model->num_rotors(),         e.log.measured,   e.log.wrench_breakdown,
                    controller_input != nullptr, diagnostic_names, e.sensors,
-                   e.estimation.has_value()};
+                   e.estimation.has_value(),    e.depth_cameras};
   std::optional<RunSensing> sensing;
   if (!e.sensors.empty()) {
     sensing.emplace(e, sim, *sensors);
@@ -503,7 +522,10 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   std::vector<std::string> inputs{e.source, e.model_path};
   if (controller_input != nullptr) inputs.push_back(controller_input->controller_path);
   if (e.scene != nullptr) inputs.push_back(e.scene_path);
-  OutputFolder out(out_dir, {"log.csv", "log.json", "summary.json"}, inputs, overwrite, "run");
+  std::vector<std::string> outputs{"log.csv", "log.json"};
+  for (const DepthCameraSpec& c : e.depth_cameras) outputs.push_back(DepthRecording::file_name(c));
+  outputs.push_back("summary.json");  // last: its presence marks a finished run
+  OutputFolder out(out_dir, outputs, inputs, overwrite, "run");
   const fs::path log_path = out.final_path("log.csv");
   const fs::path summary_path = out.final_path("summary.json");
   const fs::path metadata_path = sidecar_path(log_path.string());
@@ -536,11 +558,19 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
         "the limits and do not hold it still (dronetwin info ",
         e.model_path, ")"));
   }
+  DepthRecording depth(e.depth_cameras, e.sim.seed, e.sim.dt_s, out);
   RunObserver observer(e, controller_input, *controller, sim, *sensors,
-                       sensing ? &*sensing : nullptr, log, s);
+                       sensing ? &*sensing : nullptr, depth, log, s);
   const auto start = std::chrono::steady_clock::now();
   const StepResult result = loop.run(e.duration_s, &observer);
   log.close();
+  depth.close();
+  for (std::size_t i = 0; i < depth.size(); ++i) {
+    const DepthCameraParameters& p = depth.spec(i).parameters;
+    s.depth_frames.push_back({depth.spec(i).name,
+                              out.final_path(DepthRecording::file_name(depth.spec(i))).string(),
+                              depth.frames(i), p.height_px, p.width_px});
+  }
   const double wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 

@@ -125,6 +125,9 @@ void print_summary(const RunSummary& s) {
   }
   std::cout << "  wrote           " << s.log_path << " (" << s.log_rows << " rows), "
             << s.summary_path << "\n";
+  for (const DepthFramesSummary& d : s.depth_frames)
+    std::cout << "  depth frames    " << d.path << " (" << d.frames << " x " << d.height_px << " x "
+              << d.width_px << " float32, m)\n";
 }
 
 int run_command(const RunOptions& o) {

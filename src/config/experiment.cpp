@@ -100,6 +100,17 @@ const std::array<Names, 8> kSensorKeys = {
     sensor_keys({"noise_rad_s", "min_distance_m", "max_distance_m"}),
     sensor_keys({"noise_rad_s"})};
 const Names kMountingKeys = {"position_m", "rpy_deg"};
+// A depth camera is a `sensors:` item too, but not a SensorSuite sensor (it writes frames).
+constexpr std::string_view kDepthCameraType = "depth_camera";
+const Names kDepthCameraKeys = {"type",
+                                "name",
+                                "rate_hz",
+                                "mounting",
+                                "width_px",
+                                "height_px",
+                                "horizontal_fov_deg",
+                                "max_range_m",
+                                "noise_at_1m_m"};
 const Names kTriadKeys = {"noise_density",           "bias_random_walk", "bias_instability",
                           "bias_correlation_time_s", "turn_on_bias",     "range"};
 // Keys that on_reference: true replaces (it sets the whole initial state).
@@ -684,28 +695,87 @@ SensorSpec read_sensor(const Reader& rd, const YAML::Node& node, const std::stri
   return s;
 }
 
-/// `sensors:`: a list of sensor maps with unique names.
+/// Checks a depth camera's settings against the physics step: "<field>: ..." as validate() says.
+void check_depth_camera(const DepthCameraParameters& p, double physics_dt_s) {
+  validate(p);
+  require(p.rate_hz * physics_dt_s <= 1.0 + 1e-9, "rate_hz: ", p.rate_hz,
+          " Hz is faster than the physics step (", 1.0 / physics_dt_s,
+          " Hz): expected at most one frame per step");
+}
+
+/// An item of `sensors:` of type depth_camera: DepthCameraParameters' defaults with the keys
+/// given laid over them. `mounting.rpy_deg` turns the camera from looking forward along body x
+/// (pitch > 0 looks down).
+DepthCameraSpec read_depth_camera(const Reader& rd, const YAML::Node& node, const std::string& path,
+                                  double physics_dt_s) {
+  const Map m =
+      rd.map(node, path, kDepthCameraKeys,
+             detail::concat("a map of depth_camera settings (", name_list(kDepthCameraKeys), ")"));
+  DepthCameraSpec c;
+  if (m.has("name")) c.name = rd.string(m.get("name"), m.path("name"));
+  DepthCameraParameters& p = c.parameters;
+  read_number(rd, m, "rate_hz", p.rate_hz);
+  for (const auto& [key, out] : {std::pair<std::string_view, int*>{"width_px", &p.width_px},
+                                 std::pair<std::string_view, int*>{"height_px", &p.height_px}})
+    if (m.has(key)) *out = rd.integer<int>(m.get(key), m.path(key), "a whole number of pixels");
+  read_number(rd, m, "horizontal_fov_deg", p.horizontal_fov_deg);
+  read_number(rd, m, "max_range_m", p.max_range_m);
+  read_number(rd, m, "noise_at_1m_m", p.noise_at_1m_m);
+  if (m.has("mounting")) {
+    Mounting turn;
+    read_mounting(rd, m.get("mounting"), m.path("mounting"), turn);
+    p.mounting.position_B_m = turn.position_B_m;
+    p.mounting.rotation_BS_wxyz =
+        math::multiply<double>(turn.rotation_BS_wxyz, p.mounting.rotation_BS_wxyz);
+  }
+  try {
+    check_depth_camera(p, physics_dt_s);
+  } catch (const InvalidArgument& e) {
+    const std::string message = e.what();
+    rd.fail(field_node(node, std::string_view(message).substr(0, message.find(": "))), "",
+            detail::concat(path, ".", message));
+  }
+  return c;
+}
+
+/// `sensors:`: a list of sensor maps with unique names. Depth cameras go to `depth_cameras`;
+/// where there is no such list (Python's SensorSuite), one is an error.
 std::vector<SensorSpec> read_sensors(const Reader& rd, const YAML::Node& node,
-                                     const std::string& path, double physics_dt_s) {
+                                     const std::string& path, double physics_dt_s,
+                                     std::vector<DepthCameraSpec>* depth_cameras = nullptr) {
+  Names types = kSensorTypes;
+  types.push_back(kDepthCameraType);
   if (!node.IsSequence())
     rd.fail(node, path,
-            detail::concat("expected a list of sensor maps, each with a 'type' (",
-                           name_list(kSensorTypes), "), got ", describe(node)));
+            detail::concat("expected a list of sensor maps, each with a 'type' (", name_list(types),
+                           "), got ", describe(node)));
   std::vector<SensorSpec> sensors;
+  std::vector<std::pair<std::string, std::size_t>> names;  // every name and its item
   for (std::size_t i = 0; i < node.size(); ++i) {
     const YAML::Node item = node[i];
     const std::string item_at = item_path(path, i);
-    SensorSpec s = read_sensor(rd, item, item_at, physics_dt_s);
-    for (std::size_t j = 0; j < sensors.size(); ++j) {
-      if (sensors[j].name != s.name) continue;
-      const YAML::Node name = item["name"];  // const operator[]: no insertion
-      rd.fail(name.IsDefined() ? name : item, detail::concat(item_at, ".name"),
-              detail::concat("'", s.name, "' is already the name of ", item_path(path, j),
-                             name.IsDefined() ? ""
-                                              : " (the default name of its type; give one of "
-                                                "them a 'name')"));
+    std::string name;
+    if (types[read_type(rd, item, item_at, types, "sensor type")] == kDepthCameraType) {
+      if (depth_cameras == nullptr)
+        rd.fail(item, item_at,
+                "a depth_camera renders frames, it is not a sensor of a SensorSuite: use "
+                "DepthCamera (Python: dronetwin.DepthCamera) or an experiment's sensors:");
+      depth_cameras->push_back(read_depth_camera(rd, item, item_at, physics_dt_s));
+      name = depth_cameras->back().name;
+    } else {
+      sensors.push_back(read_sensor(rd, item, item_at, physics_dt_s));
+      name = sensors.back().name;
     }
-    sensors.push_back(std::move(s));
+    for (const auto& [other, j] : names) {
+      if (other != name) continue;
+      const YAML::Node name_node = item["name"];  // const operator[]: no insertion
+      rd.fail(name_node.IsDefined() ? name_node : item, detail::concat(item_at, ".name"),
+              detail::concat("'", name, "' is already the name of ", item_path(path, j),
+                             name_node.IsDefined() ? ""
+                                                   : " (the default name of its type; give one "
+                                                     "of them a 'name')"));
+    }
+    names.emplace_back(name, i);
   }
   return sensors;
 }
@@ -838,6 +908,14 @@ void check_experiment(const Experiment& e, const std::string& source) {
         fail(detail::concat(item, ".name"),
              detail::concat("'", e.sensors[i].name, "' is already the name of ",
                             item_path("sensors", j)));
+  }
+  for (std::size_t i = 0; i < e.depth_cameras.size(); ++i) {
+    try {
+      check_depth_camera(e.depth_cameras[i].parameters, e.sim.dt_s);
+    } catch (const InvalidArgument& x) {
+      throw InvalidArgument(
+          detail::concat(source, ": depth camera '", e.depth_cameras[i].name, "': ", x.what()));
+    }
   }
   if (e.estimation) {
     try {
@@ -1016,7 +1094,8 @@ Experiment parse_experiment(const std::string& yaml_text, const std::string& sou
   check_experiment(e, source_name);
   // After the checks above, so that the physics step the sensor rates are checked against is
   // known to be valid.
-  if (top.has("sensors")) e.sensors = read_sensors(rd, top.get("sensors"), "sensors", e.sim.dt_s);
+  if (top.has("sensors"))
+    e.sensors = read_sensors(rd, top.get("sensors"), "sensors", e.sim.dt_s, &e.depth_cameras);
   if (top.has("estimation")) e.estimation = read_estimation(rd, top.get("estimation"), e);
   return e;
 }

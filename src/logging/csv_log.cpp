@@ -106,6 +106,16 @@ std::vector<LogColumn> log_columns(const LogLayout& layout) {
       c.push_back(
           {detail::concat(sensor.name, "_", ch.suffix), ch.unit, detail::concat(what, ch.meaning)});
   }
+  for (const DepthCameraSpec& camera : layout.depth_cameras) {
+    const DepthCameraParameters& p = camera.parameters;
+    const std::string what = detail::concat("depth camera '", camera.name, "' (", p.width_px, " x ",
+                                            p.height_px, " px, ", p.rate_hz, " Hz): ");
+    c.push_back({detail::concat(camera.name, "_t"), "s",
+                 detail::concat(what, "time its latest frame was taken (NaN: none yet)")});
+    c.push_back({detail::concat(camera.name, "_frame"), "1",
+                 detail::concat(what, "index of its latest frame in ", camera.name,
+                                ".npy (NaN: none yet)")});
+  }
   if (layout.estimate) {
     for (const StateColumn& st : kState)
       c.push_back({detail::concat("est_", st.name), st.unit,
@@ -138,6 +148,10 @@ std::vector<LogColumn> log_columns(const LogLayout& layout) {
       require(col.name.rfind(sensor.name + "_", 0) != 0, "sensor '", sensor.name,
               "': its log column '", col.name,
               "' is already a column of the log; give the sensor another name");
+    for (const DepthCameraSpec& camera : layout.depth_cameras)
+      require(col.name.rfind(camera.name + "_", 0) != 0, "depth camera '", camera.name,
+              "': its log column '", col.name,
+              "' is already a column of the log; give the camera another name");
     throw InvalidArgument(detail::concat("log column '", col.name, "' appears twice"));
   }
   return c;

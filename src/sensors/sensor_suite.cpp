@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/sensors/sample_schedule.hpp"
 
 namespace dronetwin {
 
@@ -225,20 +226,6 @@ void validate(const SensorSpec& s, double physics_dt_s) {
 
 // ---- the suite ----------------------------------------------------------------------------------
 
-namespace {
-
-/// FNV-1a of the name: each sensor's stream depends on its name, not its position in the list.
-std::uint64_t name_hash(const std::string& name) {
-  std::uint64_t h = 0xcbf29ce484222325ULL;
-  for (const char c : name) {
-    h ^= static_cast<unsigned char>(c);
-    h *= 0x100000001b3ULL;
-  }
-  return h;
-}
-
-}  // namespace
-
 SensorSuite::SensorSuite(std::vector<SensorSpec> specs, double physics_dt_s, int num_rotors,
                          std::uint64_t seed)
     : specs_(std::move(specs)), dt_s_(physics_dt_s), num_rotors_(num_rotors) {
@@ -269,17 +256,14 @@ SensorSuite::SensorSuite(std::vector<SensorSpec> specs, double physics_dt_s, int
 }
 
 std::int64_t SensorSuite::step_of_sample(const SensorSpec& spec, std::int64_t n) const {
-  // The first step k with k dt >= n / f, with a tolerance for rates that divide the physics rate
-  // (1 kHz / 100 Hz = 10 steps exactly, not 10.000000000000002).
-  const double k = static_cast<double>(n) / (spec.rate_hz * dt_s_);
-  return static_cast<std::int64_t>(std::ceil(k - 1e-9 * std::max(1.0, k)));
+  return dronetwin::step_of_sample(n, spec.rate_hz, dt_s_);
 }
 
 void SensorSuite::reset(std::uint64_t seed) {
   for (std::size_t i = 0; i < specs_.size(); ++i) {
     Runtime& r = runtime_[i];
     const SensorSpec& s = specs_[i];
-    r.rng.reseed(Random::mix64(seed ^ name_hash(s.name)));
+    r.rng.reseed(sensor_stream_seed(seed, s.name));
     r.next_sample = 0;
     r.next_step = 0;
     r.last_stamp_s = 0.0;

@@ -272,8 +272,59 @@ TEST(ExperimentSensors, UnknownTypeSuggestsTheClosest) {
   expect_error("\n  - type: imus\n",
                {"s.yaml: sensors[0].type: unknown sensor type 'imus'; did you mean 'imu'?",
                 "(valid: imu, magnetometer, barometer, gps, motion_capture, range_finder, "
-                "optical_flow, rotor_speed)"});
+                "optical_flow, rotor_speed, depth_camera)"});
   expect_error("\n  - name: imu\n", {"s.yaml: sensors[0]: missing required key 'type'"});
+}
+
+// ---- depth cameras ------------------------------------------------------------------------------
+
+TEST(ExperimentDepthCameras, ReadTheirKeysOverTheDefaults) {
+  const Experiment e = parse(
+      "\n  - type: imu\n  - {type: depth_camera, name: front, rate_hz: 15, width_px: 80, "
+      "height_px: 60, horizontal_fov_deg: 70, max_range_m: 8, noise_at_1m_m: 0.01, "
+      "mounting: {position_m: [0.1, 0, 0], rpy_deg: [0, 30, 0]}}\n  - type: depth_camera\n");
+  ASSERT_EQ(e.sensors.size(), 1u);
+  ASSERT_EQ(e.depth_cameras.size(), 2u);
+  const DepthCameraSpec& c = e.depth_cameras[0];
+  EXPECT_EQ(c.name, "front");
+  EXPECT_EQ(c.parameters.rate_hz, 15.0);
+  EXPECT_EQ(c.parameters.width_px, 80);
+  EXPECT_EQ(c.parameters.height_px, 60);
+  EXPECT_EQ(c.parameters.horizontal_fov_deg, 70.0);
+  EXPECT_EQ(c.parameters.max_range_m, 8.0);
+  EXPECT_EQ(c.parameters.noise_at_1m_m, 0.01);
+  EXPECT_EQ(c.parameters.mounting.position_B_m, Vec3(0.1, 0, 0));
+  // Pitched 30 deg down from looking forward: the optical axis (camera z) in the body frame.
+  const Vec3 axis = math::rotation_matrix<double>(c.parameters.mounting.rotation_BS_wxyz).col(2);
+  EXPECT_NEAR(axis.x(), std::cos(std::numbers::pi / 6), 1e-15);
+  EXPECT_NEAR(axis.z(), -0.5, 1e-15);
+  // The second has the defaults and the default name.
+  EXPECT_EQ(e.depth_cameras[1].name, "depth");
+  EXPECT_EQ(e.depth_cameras[1].parameters.width_px, 64);
+}
+
+TEST(ExperimentDepthCameras, BadSettingsNameTheField) {
+  expect_error("\n  - {type: depth_camera, width_px: 0}\n",
+               {"s.yaml: sensors[0].width_px: expected 1 .. 4096 pixels, got 0", "(line 6)"});
+  expect_error("\n  - {type: depth_camera, height_px: 2.5}\n",
+               {"s.yaml: sensors[0].height_px: expected a whole number of pixels, got '2.5'"});
+  expect_error("\n  - {type: depth_camera, rate_hz: 2000}\n",
+               {"sensors[0].rate_hz: 2000 Hz is faster than the physics step (1000 Hz)"});
+  expect_error("\n  - {type: depth_camera, horizontal_fov_deg: 180}\n",
+               {"sensors[0].horizontal_fov_deg: expected a number in (0, 179], got 180"});
+  expect_error("\n  - {type: depth_camera, latency_s: 0.01}\n",
+               {"sensors[0]: unknown key 'latency_s'"});
+  expect_error("\n  - {type: imu, name: cam}\n  - {type: depth_camera, name: cam}\n",
+               {"sensors[1].name: 'cam' is already the name of sensors[0]"});
+}
+
+TEST(ExperimentDepthCameras, ValidateRechecksThemAfterOverrides) {
+  Experiment e = parse("\n  - {type: depth_camera, rate_hz: 100}\n");
+  e.sim.dt_s = 0.02;
+  const std::string m = error_of([&] { validate(e); });
+  EXPECT_NE(m.find("s.yaml: depth camera 'depth': rate_hz: 100 Hz is faster than the physics step"),
+            std::string::npos)
+      << m;
 }
 
 TEST(ExperimentSensors, NegativeNoiseNamesTheField) {

@@ -90,7 +90,24 @@ def test_run_log_has_sensor_columns_with_units(tmp_path):
     assert np.all(log["t"][ok] - log["mocap_t"][ok] >= 0.005 - 1e-12)
 
 
+def test_obstacle_course_writes_depth_frames_numpy_loads(tmp_path):
+    e = dt.load_experiment(source_path("config", "experiments", "obstacle_course_ekf.yaml"))
+    e.duration_s = 2.0
+    s = dt.run_experiment(e, str(tmp_path / "oc"))
+    assert s.ok and s.collided_with == "" and s.scene_path.endswith("obstacle_course.yaml")
+    (frames,) = s.depth_frames
+    assert frames["name"] == "depth" and frames["shape"] == (61, 48, 64)
+    depth = np.load(frames["path"])
+    assert depth.dtype == np.float32 and depth.shape == (61, 48, 64)
+    assert np.all(np.isfinite(depth)) and depth.max() <= 20.0 and depth.min() > 0.0
+    log, meta = dt.read_log(str(tmp_path / "oc"), metadata=True)
+    assert meta.column("depth_frame").unit == "1"
+    assert int(np.nanmax(log["depth_frame"])) == 60
+
+
 def test_bad_specs_are_named():
+    with pytest.raises(ValueError, match="a depth_camera renders frames, it is not a sensor of a SensorSuite"):
+        dt.SensorSuite([{"type": "depth_camera"}], 1e-3, 4)
     with pytest.raises(ValueError, match=r"sensors\[0\].gyro.noise_density: expected a finite number >= 0, got -1"):
         dt.SensorSuite([{"type": "imu", "gyro": {"noise_density": -1.0}}], 1e-3, 4)
     with pytest.raises(ValueError, match="unknown sensor type 'sonar'"):

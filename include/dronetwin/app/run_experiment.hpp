@@ -88,6 +88,14 @@ struct EstimationSummary {
   bool controller_on_estimate = false;
 };
 
+/// The frames of one depth camera of a run: <name>.npy, float32, shape (frames, height, width).
+struct DepthFramesSummary {
+  std::string name;
+  std::string path;
+  std::int64_t frames = 0;
+  int height_px = 0, width_px = 0;
+};
+
 struct RunSummary {
   std::string experiment_name;
   std::string experiment_path;
@@ -126,6 +134,8 @@ struct RunSummary {
   std::optional<ClosedLoopSummary> closed_loop;
   /// Set when the experiment has `estimation:`.
   std::optional<EstimationSummary> estimation;
+  /// One per depth camera of the experiment.
+  std::vector<DepthFramesSummary> depth_frames;
 
   std::int64_t log_rows = 0;
   double wall_clock_s = 0.0;

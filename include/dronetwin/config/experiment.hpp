@@ -39,6 +39,7 @@
 #include "dronetwin/integrators/integrator.hpp"
 #include "dronetwin/model/allocation.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
+#include "dronetwin/sensors/depth_camera.hpp"
 #include "dronetwin/sensors/sensor_suite.hpp"
 #include "dronetwin/sim/sim_config.hpp"
 #include "dronetwin/world/track.hpp"
@@ -186,6 +187,9 @@ struct Experiment {
   /// physics_dt_s, names unique; empty: no sensors (the default). A runner builds a SensorSuite
   /// from them; docs/experiment-format.md, "Sensors".
   std::vector<SensorSpec> sensors;
+  /// The `sensors:` items of type depth_camera: a run renders their frames into <name>.npy
+  /// (sensors/depth_camera.hpp; docs/sensors.md, "Depth camera").
+  std::vector<DepthCameraSpec> depth_cameras;
   /// `estimation:` in the file: an error-state EKF on the sensors (estimation/sensor_fusion.hpp),
   /// logged as est_*; with controller_input: estimate the controller flies on it. Needs sensors.
   std::optional<EstimationSettings> estimation;

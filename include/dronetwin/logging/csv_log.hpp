@@ -34,6 +34,7 @@
 #include <string_view>
 #include <vector>
 
+#include "dronetwin/sensors/depth_camera.hpp"
 #include "dronetwin/sensors/sensor_suite.hpp"
 
 namespace dronetwin {
@@ -53,6 +54,9 @@ struct LogLayout {
   std::vector<SensorSpec> sensors = {};
   /// est_x .. est_wz: the estimator's state (after the sensor columns).
   bool estimate = false;
+  /// After the sensors, before est_*: per depth camera <name>_t (when its latest frame was
+  /// taken) and <name>_frame (that frame's index in <name>.npy), NaN before the first.
+  std::vector<DepthCameraSpec> depth_cameras = {};
 };
 
 /// One column of a log: its header name, its unit ("s", "m", "m/s", "1" (dimensionless, e.g. a

@@ -18,6 +18,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "dronetwin/core/types.hpp"
@@ -40,6 +41,13 @@ struct DepthCameraParameters {
 
   /// The optical frame looking along body x: z_C = x_B, x_C = -y_B, y_C = -z_B.
   static Mounting forward_looking();
+};
+
+/// A depth camera of an experiment (`sensors:` item of type depth_camera): its name names the
+/// frames file <name>.npy and the log columns <name>_t, <name>_frame of a run.
+struct DepthCameraSpec {
+  std::string name = "depth";
+  DepthCameraParameters parameters;
 };
 
 /// Throws InvalidArgument "<field>: expected ..., got ..." for a camera with no pixels, more than
