@@ -85,8 +85,14 @@ void bind_vec_env(py::module_& m, const char* name) {
               out.append(
                   py::make_tuple(std::string(rl::kObservationPieceNames[static_cast<int>(s.piece)]),
                                  s.offset, s.size));
+            for (const rl::SensorSlice& s : e.sensor_slices())
+              out.append(
+                  py::make_tuple((s.depth ? "depth:" : "sensor:") + s.name, s.offset, s.size));
             return out;
-          })
+          },
+          "(name, offset, size) of each part of an observation row: the pieces, then each "
+          "sensor ('sensor:<name>': its channels and a flag, 1 when they hold a reading) and "
+          "depth camera ('depth:<name>': height x width depths, m).")
       .def_property_readonly(
           "gates",
           [](const E& e) {

@@ -45,7 +45,8 @@ Names top_level_keys() {
              "trajectory",
              "racing",
              "reward",
-             "randomization"};
+             "randomization",
+             "sensors"};
   for (std::string_view s : io_detail::kSimSettingKeys) k.push_back(s);
   return k;
 }
@@ -277,6 +278,11 @@ EnvFile parse_env_config(const std::string& yaml_text, const std::string& source
       r.attitude_rad = nonnegative3(rd, m, "attitude_rad", "+- roll, pitch, yaw in rad");
     if (m.has("body_rate_rad_s"))
       r.body_rate_rad_s = nonnegative3(rd, m, "body_rate_rad_s", "+- x, y, z in rad/s");
+  }
+  if (top.has("sensors")) {
+    // They sample at most once per env step: their rates are checked against it.
+    c.sensors = io_detail::read_sensor_list(rd, top.get("sensors"), "sensors",
+                                            1.0 / c.control_rate_hz, &c.depth_cameras);
   }
   try {
     rl::validate(c);

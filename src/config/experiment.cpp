@@ -939,6 +939,12 @@ Overloaded(Fs...) -> Overloaded<Fs...>;
 
 namespace io_detail {
 
+std::vector<SensorSpec> read_sensor_list(const Reader& rd, const YAML::Node& node,
+                                         const std::string& path, double dt_s,
+                                         std::vector<DepthCameraSpec>* depth_cameras) {
+  return read_sensors(rd, node, path, dt_s, depth_cameras);
+}
+
 void read_sim_settings(const Reader& rd, const Map& top, SimConfig& sim) {
   if (top.has("seed")) {
     sim.seed = rd.integer<std::uint64_t>(top.get("seed"), "seed",

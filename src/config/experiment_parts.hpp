@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "dronetwin/control/reference.hpp"
+#include "dronetwin/sensors/depth_camera.hpp"
+#include "dronetwin/sensors/sensor_suite.hpp"
 #include "dronetwin/sim/sim_config.hpp"
 #include "yaml_strict.hpp"
 
@@ -22,6 +24,13 @@ inline constexpr std::string_view kSimSettingKeys[] = {
 /// seed, physics_dt_s, integrator, motor_dynamics, noise, wind_m_s, gravity_m_s2, disturbances,
 /// ground and divergence of map `top`, where present, into `sim`.
 void read_sim_settings(const Reader& rd, const Map& top, SimConfig& sim);
+
+/// A `sensors:` list (docs/experiment-format.md, "Sensors") checked against the step `dt_s` at
+/// which the sensors sample; items of type depth_camera go to `depth_cameras` (an error where it
+/// is null).
+std::vector<SensorSpec> read_sensor_list(const Reader& rd, const YAML::Node& node,
+                                         const std::string& path, double dt_s,
+                                         std::vector<DepthCameraSpec>* depth_cameras);
 
 /// A `reference:` map (type circle, figure_eight, setpoint, ...).
 std::shared_ptr<const Reference> read_reference_spec(const Reader& rd, const YAML::Node& node,

@@ -39,6 +39,9 @@ PolicyController::PolicyController(std::shared_ptr<const VehicleModel> model,
   const int action_size = static_cast<int>(low_.size());
   layout_ =
       rl::observation_layout(env_.observation, action_size, m.num_rotors(), env_.gate_lookahead);
+  require(env_.sensors.empty() && env_.depth_cameras.empty(), policy_->source,
+          ": the policy observes sensors or depth cameras (its env's `sensors:`), which a "
+          "PolicyController does not simulate; evaluate it in a VecEnv instead");
   require_env_match(*policy_, layout_, env_.action, env_.normalized_actions, action_size);
   for (const rl::ObservationPiece p : env_.observation) {
     require(p != rl::ObservationPiece::kRotorSpeeds, policy_->source,

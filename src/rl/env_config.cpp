@@ -116,6 +116,34 @@ void validate(const EnvConfig& c) {
   check_nonnegative(r.velocity_m_s, "randomization.velocity_m_s");
   check_nonnegative(r.attitude_rad, "randomization.attitude_rad");
   check_nonnegative(r.body_rate_rad_s, "randomization.body_rate_rad_s");
+  // Sensors sample at most once per env step.
+  const double control_dt_s = 1.0 / c.control_rate_hz;
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < c.sensors.size(); ++i) {
+    try {
+      validate(c.sensors[i], control_dt_s);
+    } catch (const InvalidArgument& e) {
+      throw InvalidArgument(detail::concat("EnvConfig: sensors[", i, "] (", c.sensors[i].name, ").",
+                                           e.what(), " (control_rate_hz ", c.control_rate_hz, ")"));
+    }
+    names.push_back(c.sensors[i].name);
+  }
+  for (std::size_t i = 0; i < c.depth_cameras.size(); ++i) {
+    const DepthCameraParameters& p = c.depth_cameras[i].parameters;
+    try {
+      validate(p);
+    } catch (const InvalidArgument& e) {
+      throw InvalidArgument(
+          detail::concat("EnvConfig: depth camera '", c.depth_cameras[i].name, "': ", e.what()));
+    }
+    require(p.rate_hz <= c.control_rate_hz * (1.0 + 1e-9), "EnvConfig: depth camera '",
+            c.depth_cameras[i].name, "': rate_hz: expected at most control_rate_hz (",
+            c.control_rate_hz, " Hz), got ", p.rate_hz);
+    names.push_back(c.depth_cameras[i].name);
+  }
+  for (std::size_t i = 0; i < names.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      require(names[i] != names[j], "EnvConfig: sensors: the name '", names[i], "' is used twice");
   switch (c.task) {
     case Task::kTrajectory:
       require(c.reference != nullptr,

@@ -10,6 +10,8 @@
 #include "dronetwin/model/model_parameters.hpp"
 #include "dronetwin/noise/counter_normal.hpp"
 #include "dronetwin/rl/action_space.hpp"
+#include "dronetwin/sensors/sample_schedule.hpp"
+#include "dronetwin/sensors/sensor_truth.hpp"
 #include "dronetwin/world/gate.hpp"
 #include "dronetwin/world/obstacle.hpp"
 
@@ -113,7 +115,108 @@ VecEnv<T>::VecEnv(std::shared_ptr<const VehicleModel> model, EnvConfig config, i
   finished_length_.assign(n, 0);
   finished_gates_.assign(n, 0);
   finished_laps_.assign(n, 0);
+  build_sensors();
   reset(config_.seed);
+}
+
+template <class T>
+void VecEnv<T>::build_sensors() {
+  const auto n = static_cast<std::size_t>(num_envs_);
+  suites_.clear();
+  if (!config_.sensors.empty()) {
+    suites_.reserve(n);
+    for (std::size_t e = 0; e < n; ++e)
+      suites_.emplace_back(config_.sensors, control_dt_s(), model_->num_rotors(), 0);
+  }
+  cameras_.clear();
+  std::size_t pixels = 0;
+  for (const DepthCameraSpec& c : config_.depth_cameras) {
+    cameras_.emplace_back(c.parameters);
+    pixels += cameras_.back().pixels();
+  }
+  frames_.assign(n * pixels, 0.0F);
+  camera_frames_.assign(n * cameras_.size(), 0);
+  camera_next_step_.assign(n * cameras_.size(), 0);
+  camera_rng_.assign(n * cameras_.size(), Random());
+  previous_rates_.assign(6 * n, 0.0);
+}
+
+template <class T>
+void VecEnv<T>::sense(int env, bool start) {
+  if (suites_.empty() && cameras_.empty()) return;
+  const auto e = static_cast<std::size_t>(env);
+  const double dt = control_dt_s();
+  SensorTruth t;
+  t.time_s = static_cast<double>(length_[e]) * dt;
+  t.state = batch_->state(env);
+  // The accelerations over the env step: what an IMU's delta-velocity output averaged over it
+  // gives (zero at the episode's start, where the inner loops hold the vehicle).
+  double* previous = previous_rates_.data() + 6 * e;
+  for (int k = 0; k < 3; ++k) {
+    const double v = t.state[state_index::kVelocity + k];
+    const double w = t.state[state_index::kAngularVelocity + k];
+    if (!start) {
+      t.acceleration_W_m_s2[k] = (v - previous[k]) / dt;
+      t.angular_acceleration_B_rad_s2[k] = (w - previous[3 + k]) / dt;
+    }
+    previous[k] = v;
+    previous[3 + k] = w;
+  }
+  t.gravity_W_m_s2 = config_.sim.environment.gravity_W_m_s2;
+  t.rotor_speed_rad_s = batch_->rotor_speeds(env);
+  t.scene = config_.task == Task::kRacing ? &config_.track : nullptr;
+  // Each episode's sensor noise from the env's counter stream (kDrawsPerEpisode - 2 is free).
+  const std::uint64_t seed = counter_bits(
+      key_[e], static_cast<std::uint64_t>(episode_[e]) * kDrawsPerEpisode + kDrawsPerEpisode - 2);
+  if (!suites_.empty()) {
+    if (start) suites_[e].reset(seed);
+    suites_[e].update(length_[e], t);
+  }
+  const std::size_t pixels = frames_.size() / static_cast<std::size_t>(num_envs_);
+  std::size_t at = e * pixels;
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    const std::size_t i = e * cameras_.size() + c;
+    const DepthCameraParameters& p = cameras_[c].parameters();
+    if (start) {
+      camera_frames_[i] = 0;
+      camera_next_step_[i] = 0;
+      camera_rng_[i].reseed(sensor_stream_seed(seed, config_.depth_cameras[c].name));
+    }
+    if (length_[e] >= camera_next_step_[i]) {
+      cameras_[c].render(t.state, t.scene, frames_.data() + at,
+                         p.noise_at_1m_m > 0.0 ? &camera_rng_[i] : nullptr);
+      ++camera_frames_[i];
+      camera_next_step_[i] =
+          std::max(length_[e] + 1, step_of_sample(camera_frames_[i], p.rate_hz, dt));
+    }
+    at += cameras_[c].pixels();
+  }
+}
+
+template <class T>
+template <class O>
+void VecEnv<T>::write_sensor_values(int env, O* row) const {
+  const auto e = static_cast<std::size_t>(env);
+  const std::size_t pixels = frames_.size() / static_cast<std::size_t>(num_envs_);
+  const float* frame = frames_.data() + e * pixels;
+  int sensor = 0;
+  for (const SensorSlice& slice : sensor_slices_) {
+    O* out = row + slice.offset;
+    if (slice.depth) {
+      for (int k = 0; k < slice.size; ++k) out[k] = static_cast<O>(frame[k]);
+      frame += slice.size;
+      continue;
+    }
+    // No reading yet or no return (NaN channels): zeros and a flag of 0, never a NaN.
+    const SensorReading& r = suites_[e].latest(sensor++);
+    bool valid = true;
+    for (int k = 0; k + 1 < slice.size; ++k) {
+      const double v = r.values[static_cast<std::size_t>(k)];
+      valid = valid && std::isfinite(v);
+      out[k] = static_cast<O>(std::isfinite(v) ? v : 0.0);
+    }
+    out[slice.size - 1] = static_cast<O>(valid ? 1.0 : 0.0);
+  }
 }
 
 template <class T>
@@ -155,6 +258,27 @@ void VecEnv<T>::build_spaces() {
       observation_low_.push_back(lo);
       observation_high_.push_back(hi);
     }
+  }
+  sensor_slices_.clear();
+  for (const SensorSpec& sensor : config_.sensors) {
+    const int size = static_cast<int>(sensor_channels(sensor, rotors).size()) + 1;
+    sensor_slices_.push_back({sensor.name, false, offset, size});
+    offset += size;
+    for (int i = 0; i + 1 < size; ++i) {
+      observation_low_.push_back(-kInf);
+      observation_high_.push_back(kInf);
+    }
+    observation_low_.push_back(0.0);  // the reading's flag
+    observation_high_.push_back(1.0);
+  }
+  for (const DepthCameraSpec& camera : config_.depth_cameras) {
+    const DepthCameraParameters& p = camera.parameters;
+    const int size = p.width_px * p.height_px;
+    sensor_slices_.push_back({camera.name, true, offset, size});
+    offset += size;
+    observation_low_.insert(observation_low_.end(), static_cast<std::size_t>(size), 0.0);
+    observation_high_.insert(observation_high_.end(), static_cast<std::size_t>(size),
+                             p.max_range_m);
   }
   observation_size_ = offset;
 }
@@ -370,6 +494,7 @@ void VecEnv<T>::begin_episode(int env, const StateVector* given) {
   best_lap_s_[e] = std::numeric_limits<double>::quiet_NaN();
   length_[e] = 0;
   return_[e] = 0.0;
+  sense(env, true);
 }
 
 template <class T>
@@ -600,6 +725,7 @@ void VecEnv<T>::evaluate(int env) {
   truncated_[e] = cause == EndCause::kTimeLimit;
   terminated_[e] = cause != EndCause::kNone && cause != EndCause::kTimeLimit;
   done_[e] = cause != EndCause::kNone;
+  sense(env, false);
   write_observation(env);
 }
 
@@ -651,6 +777,7 @@ void VecEnv<T>::write_observation(int env, O* row) const {
     in.target_m = target_at(env, t_s, &in.target_velocity_m_s);
   }
   rl::write_observation(layout_, in, row);
+  if (!sensor_slices_.empty()) write_sensor_values(env, row);
 }
 
 template <class T>
@@ -722,9 +849,32 @@ void VecEnv<T>::set_config(const EnvConfig& c) {
   else
     same(c.arena_min_m == config_.arena_min_m && c.arena_max_m == config_.arena_max_m,
          "arena (it bounds global-position actions)");
+  const auto same_sensors = [&] {
+    if (c.sensors.size() != config_.sensors.size() ||
+        c.depth_cameras.size() != config_.depth_cameras.size())
+      return false;
+    for (std::size_t i = 0; i < c.sensors.size(); ++i)
+      if (c.sensors[i].name != config_.sensors[i].name ||
+          c.sensors[i].parameters.index() != config_.sensors[i].parameters.index())
+        return false;
+    for (std::size_t i = 0; i < c.depth_cameras.size(); ++i) {
+      const DepthCameraParameters &a = c.depth_cameras[i].parameters,
+                                  &b = config_.depth_cameras[i].parameters;
+      if (c.depth_cameras[i].name != config_.depth_cameras[i].name || a.width_px != b.width_px ||
+          a.height_px != b.height_px || a.max_range_m != b.max_range_m)
+        return false;
+    }
+    return true;
+  };
+  same(same_sensors(), "sensors (names and types) and depth cameras (names, sizes, ranges)");
   const std::vector<ObservationPiece> pieces = config_.observation;
   config_ = c;
   config_.observation = pieces;
+  // New noise settings or rates: fresh suites and cameras that sample at the next step (their
+  // noise streams restart with each env's next episode).
+  const std::vector<double> rates = previous_rates_;
+  build_sensors();
+  previous_rates_ = rates;
   if (c.vehicle_radius_m > 0.0) collision_ = CollisionShape::sphere(c.vehicle_radius_m);
   // Gate indices stay valid on a track with fewer gates.
   const int gates = static_cast<int>(config_.track.gates.size());

@@ -196,3 +196,27 @@ def test_render_several_labelled_paths(tmp_path):
     assert (tmp_path / "two.png").stat().st_size > 1000
     with pytest.raises(ValueError, match="2 paths but 1 labels"):
         rl.render_path([a, b], labels=["a"])
+
+
+def test_sensors_and_depth_frames_in_observations():
+    env = rl.make("hover", num_envs=4, sensors=[
+        {"type": "imu", "rate_hz": 100},
+        {"type": "range_finder", "rate_hz": 50, "dropout_probability": 0.0},
+        {"type": "depth_camera", "name": "cam", "rate_hz": 25, "width_px": 16, "height_px": 12,
+         "mounting": {"rpy_deg": [0, 90, 0]}},
+    ])
+    layout = env.observation_layout
+    base = layout["sensor:imu"].start
+    assert layout["sensor:imu"] == slice(base, base + 7)
+    assert layout["sensor:range"] == slice(base + 7, base + 9)
+    assert layout["depth:cam"] == slice(base + 9, base + 9 + 16 * 12)
+    assert env.single_observation_space.shape == (base + 9 + 192,)
+    obs, _ = env.reset(seed=1)
+    for _ in range(20):
+        obs, *_ = env.step(np.zeros((4, 3)))
+    assert np.all(np.isfinite(obs))
+    frames = obs[:, layout["depth:cam"]].reshape(4, 12, 16)
+    # Looking down from the hover (about 1 to 2 m up): the ground fills every frame.
+    assert np.all((frames > 0.3) & (frames < 4.0))
+    # The IMU's specific force along body z is about g while the SE(3) loop holds the vehicles.
+    assert np.all(np.abs(obs[:, base + 2] - 9.81) < 3.0)

@@ -19,6 +19,8 @@
 #include "dronetwin/control/body_rate.hpp"
 #include "dronetwin/control/reference.hpp"
 #include "dronetwin/control/se3.hpp"
+#include "dronetwin/sensors/depth_camera.hpp"
+#include "dronetwin/sensors/sensor_suite.hpp"
 #include "dronetwin/sim/sim_config.hpp"
 #include "dronetwin/world/track.hpp"
 
@@ -162,6 +164,12 @@ struct EnvConfig {
 
   RewardWeights reward;
   Randomization randomization;
+
+  // Sensors (docs/rl.md, "Sensors in observations"): each env has these, sampled at most once
+  // per env step from the true state (rates <= control_rate_hz; the IMU reads the step's mean
+  // acceleration), their latest readings appended to the observation after its pieces.
+  std::vector<SensorSpec> sensors;
+  std::vector<DepthCameraSpec> depth_cameras;
 };
 
 /// The default observation of a task (racing: Eq. 4.18).

@@ -45,9 +45,20 @@
 #include "dronetwin/rl/env_config.hpp"
 #include "dronetwin/rl/episode.hpp"
 #include "dronetwin/rl/observation.hpp"
+#include "dronetwin/sensors/depth_camera.hpp"
+#include "dronetwin/sensors/sensor_suite.hpp"
 #include "dronetwin/world/collision.hpp"
 
 namespace dronetwin::rl {
+
+/// A sensor's (channels, then 1 when they hold a reading and 0 when not: none yet, no return) or
+/// a depth camera's (height x width depths, m) part of an observation row.
+struct SensorSlice {
+  std::string name;
+  bool depth = false;
+  int offset = 0;
+  int size = 0;
+};
 
 template <class T>
 class VecEnv {
@@ -64,6 +75,9 @@ class VecEnv {
   double control_dt_s() const { return substeps_ * config_.sim.dt_s; }
   const EnvConfig& config() const { return config_; }
   const VehicleModel& model() const { return *model_; }
+  /// Where each sensor's and depth camera's values sit in an observation row (after the
+  /// pieces of observation_layout()).
+  const std::vector<SensorSlice>& sensor_slices() const { return sensor_slices_; }
   /// What touches gates and obstacles: a sphere of EnvConfig::vehicle_radius_m when that is
   /// set, else the model's collision shape (VehicleModel::collision_shape()).
   const CollisionShape& collision_shape() const { return collision_; }
@@ -156,6 +170,11 @@ class VecEnv {
   double uniform(int env, int draw) const;
   void build_spaces();
   std::size_t lane(int env) const;
+  /// The env's sensors and depth cameras at its current step (`start`: the episode's first).
+  void sense(int env, bool start);
+  void build_sensors();
+  template <class O>
+  void write_sensor_values(int env, O* out) const;
 
   std::shared_ptr<const VehicleModel> model_;
   EnvConfig config_;
@@ -196,6 +215,16 @@ class VecEnv {
   std::vector<double> finished_return_, finished_best_lap_;
   std::vector<std::int64_t> finished_length_;
   std::vector<std::int32_t> finished_gates_, finished_laps_;
+  // Sensors (EnvConfig::sensors, depth_cameras): one suite per env, sampled once per env step at
+  // most; each camera's latest frame per env; the velocities of the previous step (the IMU's
+  // acceleration over the step).
+  std::vector<SensorSuite> suites_;
+  std::vector<DepthCamera> cameras_;
+  std::vector<float> frames_;
+  std::vector<std::int64_t> camera_frames_, camera_next_step_;
+  std::vector<Random> camera_rng_;
+  std::vector<double> previous_rates_;  ///< per env: v (3) and w (3) after the last step
+  std::vector<SensorSlice> sensor_slices_;
   SingleThreadGuard guard_;
 };
 
