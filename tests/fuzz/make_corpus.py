@@ -270,6 +270,10 @@ def main():
     reset("model_loader")
     copy_all("model_loader", "models/*.yaml", "model_")
     copy_all("model_loader", "tests/data/bad/*.yaml", "bad_")
+    with open(os.path.join(ROOT, "models", "qdrone2.yaml"), "rb") as f:
+        qdrone2 = f.read()
+    put("model_loader", "collision_box.yaml", qdrone2 + b"collision: {shape: box, "
+        b"half_size_m: [0.3, 0.3, 0.06], center_m: [0, 0, 0.02]}\n")
 
     def from_config_experiments(data):
         return (data.replace(b"../../../models/", b"../../models/")
@@ -290,6 +294,14 @@ def main():
         "  - {type: range_finder, min_range_m: 0.05, max_range_m: 8}\n"
         "  - {type: optical_flow, max_distance_m: 5}\n"
         "  - {type: rotor_speed, name: esc, noise_rad_s: 3}\n")
+    put("experiment", "scene_depth.yaml",
+        "name: scene\nmodel: ../../models/qdrone2.yaml\nduration_s: 0.1\ninput: {type: hover}\n"
+        "scene: ../tracks/obstacle_course.yaml\n"
+        "initial_state: {position_m: [0, 0, 1.2], rotor_speeds_rad_s: hover}\nsensors:\n"
+        "  - {type: range_finder}\n"
+        "  - {type: depth_camera, name: cam, rate_hz: 30, width_px: 16, height_px: 12,\n"
+        "     horizontal_fov_deg: 70, max_range_m: 8, noise_at_1m_m: 0.01,\n"
+        "     mounting: {position_m: [0.1, 0, 0], rpy_deg: [0, 20, 0]}}\n")
 
     reset("controller_config")
     copy_all("controller_config", "config/controllers/*.yaml", "controller_")
