@@ -56,9 +56,7 @@ void run(benchmark::State& state, const CollisionShape& shape) {
   state.counters["contact_share"] = static_cast<double>(contacts) / static_cast<double>(tests);
 }
 
-void BM_SceneContactSphere(benchmark::State& state) {
-  run(state, CollisionShape::sphere(0.264));
-}
+void BM_SceneContactSphere(benchmark::State& state) { run(state, CollisionShape::sphere(0.264)); }
 void BM_SceneContactBox(benchmark::State& state) {
   run(state, CollisionShape::box(Vec3(0.25, 0.25, 0.06)));
 }
@@ -67,8 +65,7 @@ void step(benchmark::State& state, bool with_scene) {
   auto model = std::make_shared<const VehicleModel>(
       load_vehicle_model(std::string(DRONETWIN_SOURCE_DIR) + "/models/qdrone2.yaml"));
   Simulator sim(model);
-  if (with_scene)
-    sim.set_scene(std::make_shared<const Track>(bench::circuit_with_obstacles()));
+  if (with_scene) sim.set_scene(std::make_shared<const Track>(bench::circuit_with_obstacles()));
   // Hovering in the open between the circuit's pillars.
   sim.reset(Simulator::hover_state(Vec3(0.0, 1.5, 3.0)), model->hover_speeds_rad_s());
   sim.set_rotor_speed_reference(model->hover_speeds_rad_s());

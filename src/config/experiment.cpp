@@ -594,6 +594,20 @@ YAML::Node field_node(const YAML::Node& at, std::string_view field) {
   return field_node(child[index], rest);
 }
 
+/// Runs `check` on the item at `path`, whose InvalidArgument message starts with the field
+/// relative to the item ("gyro.noise_density: ..."), and reports it as "<path>.<message>" at
+/// that field's line in the file.
+template <class Check>
+void check_item(const Reader& rd, const YAML::Node& node, const std::string& path, Check&& check) {
+  try {
+    check();
+  } catch (const InvalidArgument& e) {
+    const std::string message = e.what();
+    rd.fail(field_node(node, std::string_view(message).substr(0, message.find(": "))), "",
+            detail::concat(path, ".", message));
+  }
+}
+
 /// One item of `sensors:`: the defaults of its type (SensorSpec::defaults) with the keys given
 /// laid over them, validated against the physics step.
 SensorSpec read_sensor(const Reader& rd, const YAML::Node& node, const std::string& path,
@@ -684,14 +698,7 @@ SensorSpec read_sensor(const Reader& rd, const YAML::Node& node, const std::stri
                   std::get<RotorSpeedSensorParameters>(s.parameters).noise_rad_s);
       break;
   }
-  try {
-    validate(s, physics_dt_s);
-  } catch (const InvalidArgument& e) {
-    // validate's message starts with the field relative to the sensor ("gyro.noise_density: ...").
-    const std::string message = e.what();
-    rd.fail(field_node(node, std::string_view(message).substr(0, message.find(": "))), "",
-            detail::concat(path, ".", message));
-  }
+  check_item(rd, node, path, [&] { validate(s, physics_dt_s); });
   return s;
 }
 
@@ -728,13 +735,7 @@ DepthCameraSpec read_depth_camera(const Reader& rd, const YAML::Node& node, cons
     p.mounting.rotation_BS_wxyz =
         math::multiply<double>(turn.rotation_BS_wxyz, p.mounting.rotation_BS_wxyz);
   }
-  try {
-    check_depth_camera(p, physics_dt_s);
-  } catch (const InvalidArgument& e) {
-    const std::string message = e.what();
-    rd.fail(field_node(node, std::string_view(message).substr(0, message.find(": "))), "",
-            detail::concat(path, ".", message));
-  }
+  check_item(rd, node, path, [&] { check_depth_camera(p, physics_dt_s); });
   return c;
 }
 

@@ -25,20 +25,23 @@ struct Simplex {
   int n = 0;
 };
 
-// (a x b) x a: the part of b perpendicular to a, in the plane of a and b (scaled by |a|^2).
-inline Vec3 perpendicular(const Vec3& a, const Vec3& b) { return a.cross(b).cross(a); }
+// Keeps the segment from `b` to `a` (A newest) and aims at the origin square to it: the part of
+// A->O perpendicular to A->B, (ab x ao) x ab. True when that is zero: the origin is on the segment.
+// Takes the points by value: callers pass the simplex's own points, which this overwrites.
+inline bool keep_segment(Simplex& s, const Vec3 a, const Vec3 b, Vec3& d) {
+  const Vec3 ab = b - a;
+  d = ab.cross(Vec3(-a)).cross(ab);
+  s.p[0] = b;
+  s.p[1] = a;
+  s.n = 2;
+  return d.squaredNorm() == 0.0;
+}
 
 // The segment B-A (A newest): keep what is closest to the origin and aim at it. True when the
 // origin lies on the segment.
 inline bool line(Simplex& s, const Vec3& a, const Vec3& b, Vec3& d) {
   const Vec3 ab = b - a, ao = -a;
-  if (ab.dot(ao) > 0.0) {
-    s.p[0] = b;
-    s.p[1] = a;
-    s.n = 2;
-    d = perpendicular(ab, ao);
-    return d.squaredNorm() == 0.0;
-  }
+  if (ab.dot(ao) > 0.0) return keep_segment(s, a, b, d);
   s.p[0] = a;
   s.n = 1;
   d = ao;
@@ -51,13 +54,7 @@ inline bool triangle(Simplex& s, const Vec3& a, const Vec3& b, const Vec3& c, Ve
   const Vec3 n = ab.cross(ac);
   if (n.squaredNorm() == 0.0) return line(s, a, b, d);  // collinear: a segment's test
   if (n.cross(ac).dot(ao) > 0.0) {                      // beyond edge AC, on the side away from B
-    if (ac.dot(ao) > 0.0) {
-      s.p[0] = c;
-      s.p[1] = a;
-      s.n = 2;
-      d = perpendicular(ac, ao);
-      return d.squaredNorm() == 0.0;
-    }
+    if (ac.dot(ao) > 0.0) return keep_segment(s, a, c, d);
     return line(s, a, b, d);
   }
   if (ab.cross(n).dot(ao) > 0.0) return line(s, a, b, d);  // beyond edge AB, away from C
