@@ -106,4 +106,5 @@ PYBIND11_MODULE(_core, m) {
   dp::bind_policy(m);
   dp::bind_world(m);
   dp::bind_sensors(m);
+  dp::bind_noise(m);
 }
