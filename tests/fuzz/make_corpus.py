@@ -315,6 +315,10 @@ def main():
         "  - {type: box, center: [0, 3, 1], size: [2, 1, 2]}\n"
         "  - {type: cylinder, center: [-3, 0, 2], radius_m: 0.5, height_m: 4}\n"
         "  - {type: sphere, center: [3, -3, 2], radius_m: 0.25}\n")
+    # A scene without gates (experiments' `scene:`), which a track may be.
+    put("track", "scene_no_gates.yaml",
+        "name: s\narena: {min: [-5, -5, -1], max: [5, 5, 5]}\nstart: {position: [0, 0, 1]}\n"
+        "obstacles:\n  - {type: sphere, center: [2, 0, 1], radius_m: 0.4}\n")
 
     for harness in ("csv_log", "crazyflie_csv"):
         reset(harness)
