@@ -1,6 +1,7 @@
 // PolicyController (policy/policy_controller.hpp): a policy flown by the controller through
 // ClosedLoop sees the observations the VecEnv shows it and flies the same path, for the position,
-// CTBR and generalized-force modes; mismatched policies and rotor-speed observations are refused.
+// CTBR and generalized-force modes; mismatched policies and rotor-speed or sensor observations are
+// refused.
 
 #include "dronetwin/policy/policy_controller.hpp"
 
@@ -171,6 +172,26 @@ TEST(PolicyController, MismatchedPoliciesAreRefusedNamingWhatDiffers) {
     ADD_FAILURE() << "no error";
   } catch (const InvalidArgument& e) {
     EXPECT_NE(std::string(e.what()).find("observes rotor_speeds"), std::string::npos) << e.what();
+  }
+}
+
+// Sensor readings and depth frames come from a VecEnv's sensor suites, which a controller does not
+// simulate: a policy trained on them is refused with the way out.
+TEST(PolicyController, APolicyThatObservesSensorsIsRefused) {
+  for (const std::string sensors :
+       {"{sensors: [{type: imu, rate_hz: 100}]}",
+        "{sensors: [{type: depth_camera, rate_hz: 10, width_px: 4, height_px: 3}]}"}) {
+    EnvFile f = hover_env(sensors);
+    rl::VecEnv<double> env(f.model, f.config, 1, 1);
+    try {
+      PolicyController c(f.model, pd_policy(env, 1.0, 0.0, false), f.config);
+      ADD_FAILURE() << "no error for " << sensors;
+    } catch (const InvalidArgument& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("pd.dtpolicy"), std::string::npos) << what;
+      EXPECT_NE(what.find("observes sensors or depth cameras"), std::string::npos) << what;
+      EXPECT_NE(what.find("evaluate it in a VecEnv instead"), std::string::npos) << what;
+    }
   }
 }
 

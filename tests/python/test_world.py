@@ -79,6 +79,14 @@ def test_a_simulator_with_a_scene_stops_at_the_pillar(qdrone2):
     assert free.step(3000).ok
 
 
+def test_set_scene_none_clears_the_scene(qdrone2):
+    sim = drifting(qdrone2)
+    sim.set_scene(pillar_scene())
+    sim.set_scene(None)
+    assert sim.step(3000).ok
+    assert sim.state[0] > 1.8  # past the pillar's face
+
+
 def test_a_box_from_the_spec_reaches_further(qdrone2):
     spec = qdrone2.spec
     spec.collision = dt.CollisionShape.box([0.5, 0.2, 0.05])
