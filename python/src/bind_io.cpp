@@ -79,6 +79,12 @@ void bind_io(py::module_& m) {
             e.sim.environment.wind_W_m_s = to_fixed<3>(w, "Experiment.wind_m_s");
           })
       .def_property(
+          "wind",
+          py::cpp_function([](Experiment& e) -> WindSettings& { return e.sim.wind; },
+                           py::return_value_policy::reference_internal),
+          [](Experiment& e, const WindSettings& v) { e.sim.wind = v; },
+          "Shear, gusts and turbulence (WindSettings, a view: edit it in place).")
+      .def_property(
           "gravity_m_s2", [](const Experiment& e) { return e.sim.environment.gravity_W_m_s2; },
           [](Experiment& e, py::handle g) {
             e.sim.environment.gravity_W_m_s2 = to_fixed<3>(g, "Experiment.gravity_m_s2");

@@ -193,6 +193,8 @@ void bind_sim(py::module_& m) {
           "First-order motor lag (Eq. 2.43-2.45); off: speed = clamped reference at once.")
       .def_readwrite("disturbances", &SimConfig::disturbances)
       .def_readwrite("environment", &SimConfig::environment)
+      .def_readwrite("wind", &SimConfig::wind,
+                     "Shear, gusts and turbulence around environment.wind_W_m_s (WindSettings).")
       .def_readwrite("noise", &SimConfig::noise)
       .def_readwrite("ground", &SimConfig::ground)
       .def_readwrite("divergence", &SimConfig::divergence)
@@ -365,7 +367,15 @@ void bind_sim(py::module_& m) {
       .def_property_readonly("failure_message", &Simulator::failure_message)
       .def(
           "set_wind", [](Simulator& s, py::handle w) { s.set_wind(to_fixed<3>(w, "set_wind")); },
-          py::arg("wind_W_m_s"), "Air velocity, world frame, m/s (from the next step on).")
+          py::arg("wind_W_m_s"),
+          "Mean air velocity, world frame, m/s (at the shear's reference height when the wind is "
+          "sheared), from the next step on.")
+      .def("set_wind_field", &Simulator::set_wind_field, py::arg("wind"),
+           "Shear, gusts and turbulence (WindSettings) from the next step on.")
+      .def_property_readonly(
+          "wind_W_m_s", [](const Simulator& s) { return copy_of(s.wind_W_m_s()); },
+          "Air velocity at the vehicle now (mean, shear, gusts, turbulence), held over the next "
+          "step, world frame, m/s.")
       .def("set_disturbances", &Simulator::set_disturbances, py::arg("switches"),
            "Switches disturbance terms on or off from the next step on (DisturbanceSwitches).")
       .def("set_noise_enabled", &Simulator::set_noise_enabled, py::arg("enabled"),

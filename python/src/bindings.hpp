@@ -30,6 +30,7 @@ void bind_policy(py::module_& m);
 void bind_world(py::module_& m);
 void bind_sensors(py::module_& m);
 void bind_noise(py::module_& m);
+void bind_wind(py::module_& m);
 
 /// "a float64 array of shape (3,)", "a list of length 2", "a str", for messages.
 std::string describe_object(py::handle obj);

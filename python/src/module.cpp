@@ -96,6 +96,7 @@ PYBIND11_MODULE(_core, m) {
       "version", [] { return std::string(dronetwin::version()); },
       "The dronetwin version the extension was built as.");
   dp::bind_model(m);
+  dp::bind_wind(m);
   dp::bind_sim(m);
   dp::bind_control(m);
   dp::bind_io(m);

@@ -203,6 +203,8 @@ class RunObserver final : public LoopObserver {
     }
     row_[k++] = sim.contact().in_contact ? 1.0 : 0.0;
     row_[k++] = sim.contact().crashed ? 1.0 : 0.0;
+    if (e_.sim.wind.varies())
+      for (int i = 0; i < 3; ++i) row_[k++] = sim.wind_W_m_s()[i];
     if (e_.log.wrench_breakdown) {
       const WrenchBreakdown b = sim.wrench_breakdown();
       for (const Wrench<double>& w : b.terms) {
@@ -503,7 +505,7 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
       controller_input != nullptr ? controller->diagnostic_names() : std::vector<std::string>{};
   LogLayout layout{model->num_rotors(),         e.log.measured,   e.log.wrench_breakdown,
                    controller_input != nullptr, diagnostic_names, e.sensors,
-                   e.estimation.has_value(),    e.depth_cameras};
+                   e.estimation.has_value(),    e.depth_cameras,  e.sim.wind.varies()};
   std::optional<RunSensing> sensing;
   if (!e.sensors.empty()) {
     sensing.emplace(e, sim, *sensors);

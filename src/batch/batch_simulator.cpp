@@ -121,6 +121,12 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
     : model_(std::move(model)), config_(std::move(config)) {
   require(model_ != nullptr, "BatchSimulator: model is null");
   validate(config_);
+  // The batch holds each lane's wind over a step as given (set_wind); shear, gusts and turbulence
+  // are stepped by Simulator only. Refused rather than silently flown in constant wind.
+  require(!config_.wind.varies(),
+          "BatchSimulator: wind shear, gusts and turbulence (the config's `wind:`) are simulated "
+          "by Simulator, not by the batched engine; remove them, or vary each lane's wind with "
+          "set_wind()");
   stride_ = batch_stride<T>(num_vehicles, "BatchSimulator");
   terms_ = ForceTerms::of(config_.disturbances);
   num_vehicles_ = num_vehicles;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <initializer_list>
 #include <limits>
@@ -47,12 +48,17 @@ const Names kTopLevelKeys = {
     "name",       "description",    "model",         "seed",     "duration_s",   "physics_dt_s",
     "integrator", "motor_dynamics", "noise",         "wind_m_s", "gravity_m_s2", "disturbances",
     "ground",     "divergence",     "initial_state", "log",      "metrics",      "input",
-    "sensors",    "estimation",     "scene"};
+    "sensors",    "estimation",     "scene",         "wind"};
 const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
 const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
 const Names kBlockKeys = {"a", "b"};
 const Names kDisturbanceKeys(kDisturbanceSwitchNames.begin(), kDisturbanceSwitchNames.end());
 const Names kGroundKeys = {"enabled", "crash_speed_m_s", "crash_tilt_rad", "friction_coefficient"};
+const Names kWindKeys = {"shear", "turbulence", "gusts"};
+const Names kShearKeys = {"reference_height_m", "roughness_length_m"};
+const Names kTurbulenceKeys = {"wind_at_20ft_m_s"};
+const Names kTurbulenceSeverities = {"none", "light", "moderate", "severe"};
+const Names kGustKeys = {"start_s", "duration_s", "amplitude_m_s"};
 const Names kDivergenceKeys = {"max_position_m", "max_speed_m_s", "max_angular_speed_rad_s"};
 const Names kInitialStateKeys = {"position_m",  "velocity_m_s",           "quaternion_wxyz",
                                  "euler_rad",   "angular_velocity_rad_s", "rotor_speeds_rad_s",
@@ -197,6 +203,73 @@ GroundConfig read_ground(const Reader& rd, const YAML::Node& node, const std::st
       rd.fail(f, m.path("friction_coefficient"), "expected a number >= 0, got " + f.Scalar());
   }
   return g;
+}
+
+/// `wind:` (docs/wind.md): shear (true, false or a map), turbulence (none, light, moderate,
+/// severe or {wind_at_20ft_m_s}) and a list of 1 - cos gusts; the mean wind is `wind_m_s`.
+WindSettings read_wind(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  WindSettings w;
+  const Map m = rd.map(node, path, kWindKeys,
+                       "a map of wind settings (shear, turbulence, gusts); the mean wind is "
+                       "the top-level wind_m_s");
+  if (m.has("shear")) {
+    const YAML::Node n = m.get("shear");
+    if (n.IsScalar()) {
+      w.shear.enabled = rd.boolean(n, m.path("shear"));
+    } else {
+      const Map sm =
+          rd.map(n, m.path("shear"), kShearKeys, "true, false or a map of shear settings");
+      w.shear.enabled = true;
+      if (sm.has("reference_height_m"))
+        w.shear.reference_height_m =
+            rd.positive(sm.get("reference_height_m"), sm.path("reference_height_m"));
+      if (sm.has("roughness_length_m"))
+        w.shear.roughness_length_m =
+            rd.positive(sm.get("roughness_length_m"), sm.path("roughness_length_m"));
+      if (!(w.shear.reference_height_m > 2.0 * w.shear.roughness_length_m)) {
+        char text[160];
+        std::snprintf(text, sizeof text,
+                      "reference_height_m (%g) must be above twice roughness_length_m (%g)",
+                      w.shear.reference_height_m, w.shear.roughness_length_m);
+        rd.fail(n, m.path("shear"), text);
+      }
+    }
+  }
+  if (m.has("turbulence")) {
+    const YAML::Node n = m.get("turbulence");
+    if (n.IsScalar()) {
+      const std::size_t k = rd.choice(n, m.path("turbulence"), kTurbulenceSeverities, "severity");
+      if (k > 0) w.turbulence = TurbulenceSettings::of(static_cast<TurbulenceSeverity>(k - 1));
+    } else {
+      const Map tm = rd.map(n, m.path("turbulence"), kTurbulenceKeys,
+                            "none, light, moderate, severe or {wind_at_20ft_m_s: ...}");
+      const YAML::Node v = tm.required("wind_at_20ft_m_s");
+      w.turbulence.enabled = true;
+      w.turbulence.wind_at_20ft_m_s = rd.number(v, tm.path("wind_at_20ft_m_s"));
+      if (w.turbulence.wind_at_20ft_m_s < 0.0)
+        rd.fail(v, tm.path("wind_at_20ft_m_s"), "expected a speed >= 0 m/s, got " + v.Scalar());
+    }
+  }
+  if (m.has("gusts")) {
+    const YAML::Node list = m.get("gusts");
+    const std::string list_path = m.path("gusts");
+    if (!list.IsSequence())
+      rd.fail(list, list_path, "expected a list of gusts ({start_s, duration_s, amplitude_m_s})");
+    if (list.size() > static_cast<std::size_t>(kMaxGusts))
+      rd.fail(list, list_path,
+              detail::concat("expected at most ", kMaxGusts, " gusts, got ", list.size()));
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string item = detail::concat(list_path, "[", i, "]");
+      const Map gm = rd.map(list[i], item, kGustKeys, "a map {start_s, duration_s, amplitude_m_s}");
+      Gust& g = w.gusts[i];
+      g.start_s = rd.number(gm.required("start_s"), gm.path("start_s"));
+      g.duration_s = rd.positive(gm.required("duration_s"), gm.path("duration_s"));
+      g.amplitude_W_m_s =
+          rd.fixed<3>(gm.required("amplitude_m_s"), gm.path("amplitude_m_s"), "x, y, z in m/s");
+    }
+    w.num_gusts = static_cast<int>(list.size());
+  }
+  return w;
 }
 
 DivergenceLimits read_divergence(const Reader& rd, const YAML::Node& node,
@@ -962,6 +1035,7 @@ void read_sim_settings(const Reader& rd, const Map& top, SimConfig& sim) {
   if (top.has("noise")) sim.noise = read_noise(rd, top.get("noise"), "noise");
   if (top.has("wind_m_s"))
     sim.environment.wind_W_m_s = rd.fixed<3>(top.get("wind_m_s"), "wind_m_s", "x, y, z in m/s");
+  if (top.has("wind")) sim.wind = read_wind(rd, top.get("wind"), "wind");
   if (top.has("gravity_m_s2"))
     sim.environment.gravity_W_m_s2 =
         rd.fixed<3>(top.get("gravity_m_s2"), "gravity_m_s2", "x, y, z in m/s^2");

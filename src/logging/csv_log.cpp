@@ -81,6 +81,13 @@ std::vector<LogColumn> log_columns(const LogLayout& layout) {
   }
   c.push_back({"in_contact", "bool", "1 while the vehicle touches the ground"});
   c.push_back({"crashed", "bool", "1 from the first crash on (too fast or too tilted a contact)"});
+  if (layout.wind) {
+    for (const char* axis : kAxes)
+      c.push_back({std::string("wind_") + axis, "m/s",
+                   std::string("air velocity at the vehicle (mean wind, shear, gusts, turbulence) "
+                               "held over the step from t, world ") +
+                       axis + " axis"});
+  }
   if (layout.wrench_breakdown) {
     for (int k = 0; k < kNumTerms; ++k) {
       const std::string term(term_name(static_cast<Term>(k)));

@@ -19,6 +19,32 @@ void require_finite_vec(const Vec3& v, const char* field) {
   require(v.allFinite(), "simulation config: ", field, ": expected finite numbers, got [",
           v.transpose(), "]");
 }
+void validate_wind(const WindSettings& w) {
+  const WindShear& sh = w.shear;
+  require(std::isfinite(sh.roughness_length_m) && sh.roughness_length_m > 0.0,
+          "simulation config: wind.shear.roughness_length_m: expected > 0, got ",
+          sh.roughness_length_m);
+  require(
+      std::isfinite(sh.reference_height_m) && sh.reference_height_m > 2.0 * sh.roughness_length_m,
+      "simulation config: wind.shear.reference_height_m: expected above twice the roughness "
+      "length (",
+      2.0 * sh.roughness_length_m, " m), got ", sh.reference_height_m);
+  const double w20 = w.turbulence.wind_at_20ft_m_s;
+  require(std::isfinite(w20) && w20 >= 0.0,
+          "simulation config: wind.turbulence.wind_at_20ft_m_s: expected a speed >= 0, got ", w20);
+  require(w.num_gusts >= 0 && w.num_gusts <= kMaxGusts,
+          "simulation config: wind.num_gusts: expected 0 .. ", kMaxGusts, ", got ", w.num_gusts);
+  for (int i = 0; i < w.num_gusts; ++i) {
+    const Gust& g = w.gusts[static_cast<std::size_t>(i)];
+    require(std::isfinite(g.start_s), "simulation config: wind.gusts[", i,
+            "].start_s: expected a finite time, got ", g.start_s);
+    require(std::isfinite(g.duration_s) && g.duration_s > 0.0, "simulation config: wind.gusts[", i,
+            "].duration_s: expected > 0, got ", g.duration_s);
+    require(g.amplitude_W_m_s.allFinite(), "simulation config: wind.gusts[", i,
+            "].amplitude_m_s: expected finite numbers, got [", g.amplitude_W_m_s.transpose(), "]");
+  }
+}
+
 }  // namespace
 
 void validate(const SimConfig& c) {
@@ -26,6 +52,7 @@ void validate(const SimConfig& c) {
           "simulation config: dt_s: expected a step in (0, 0.1] s, got ", c.dt_s);
   require_finite_vec(c.environment.gravity_W_m_s2, "environment.gravity");
   require_finite_vec(c.environment.wind_W_m_s, "environment.wind");
+  validate_wind(c.wind);
   const OuParameters& p = c.noise.parameters;
   const double drift_scale = p.drift == OuDrift::kPerSample ? 1.0 : c.dt_s;
   for (int k = 0; k < 4; ++k) {
@@ -103,12 +130,17 @@ void Simulator::reset(const StateVector& state, const RotorVector& rotor_speeds_
   data_.derivative_noise.reset();
   update_measured_state();
   data_.rng.reseed(config_.seed);
+  // Developed turbulence from the first step (drawn whether or not it is on, so that switching
+  // it on mid-run meets developed gusts too).
+  data_.turbulence_rng.reseed(turbulence_stream_seed(config_.seed));
+  data_.turbulence = dryden_start(data_.turbulence_rng);
   data_.contact = ContactState{};
   if (config_.ground.enabled && data_.state[state_index::kPosition + 2] <= 0.0) {
     data_.contact.in_contact = true;
   }
   data_.status = StepStatus::kOk;
   data_.failure = StepFailure{};
+  update_wind();
 }
 
 void Simulator::reseed(std::uint64_t seed) {
@@ -123,11 +155,31 @@ void Simulator::set_state(const StateVector& state) {
   data_.state = state;
   normalize_quaternion(data_.state);
   update_measured_state();
+  update_wind();
 }
 
 void Simulator::refresh_measured_state() {
   const SingleThreadGuard::Hold hold(guard_, "Simulator::refresh_measured_state");
   update_measured_state();
+  update_wind();
+}
+
+void Simulator::update_wind() {
+  const Vec3& mean_ref = config_.environment.wind_W_m_s;
+  const WindSettings& w = config_.wind;
+  const double height_m = data_.state[state_index::kPosition + 2];
+  // A state written through mutable_data() may be non-finite; the next step reports it.
+  if (!w.varies() || !std::isfinite(height_m)) {
+    data_.wind_W_m_s = mean_ref;
+    return;
+  }
+  const Vec3 mean = mean_wind_at(mean_ref, w.shear, height_m);
+  Vec3 wind = mean + gust_at(w, data_.time_s);
+  if (w.turbulence.enabled) {
+    data_.turbulence_scales = dryden_low_altitude(height_m, w.turbulence.wind_at_20ft_m_s);
+    wind += turbulence_axes(mean) * dryden_gust(data_.turbulence, data_.turbulence_scales);
+  }
+  data_.wind_W_m_s = wind;
 }
 
 void Simulator::update_measured_state() {
@@ -178,6 +230,14 @@ void Simulator::set_wind(const Vec3& wind_W_m_s) {
   require(wind_W_m_s.allFinite(), "wind: expected finite numbers, got [", wind_W_m_s.transpose(),
           "]");
   config_.environment.wind_W_m_s = wind_W_m_s;
+  update_wind();
+}
+
+void Simulator::set_wind_field(const WindSettings& wind) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_wind_field");
+  validate_wind(wind);
+  config_.wind = wind;
+  update_wind();
 }
 
 StepStatus Simulator::check_state(const StateVector& x) const {
@@ -235,10 +295,9 @@ StepResult Simulator::step_unchecked() {
                           "); call reset() first");
   }
   // Rotor speeds are held over the step: do their part of the force model once.
-  const Environment& env = config_.environment;
   StateVector next =
       held_rotor_step(*kernel_, config_.integrator, data_.state, data_.rotor_speed_rad_s,
-                      env.wind_W_m_s, env.gravity_W_m_s2, config_.dt_s);
+                      data_.wind_W_m_s, config_.environment.gravity_W_m_s2, config_.dt_s);
   // Contact is resolved on a copy: a refused step must not change it (nor anything else).
   ContactState contact = data_.contact;
   resolve_ground_contact(config_.ground, data_.state, config_.dt_s, next, contact);
@@ -264,6 +323,14 @@ StepResult Simulator::step_unchecked() {
     return {status, 0};
   }
   const VehicleModel& m = *model_;
+  if (config_.wind.turbulence.enabled) {
+    // Height (in the scales) and airspeed of the step's start, held over the step.
+    const Vec3 mean = mean_wind_at(config_.environment.wind_W_m_s, config_.wind.shear,
+                                   data_.state[state_index::kPosition + 2]);
+    const double airspeed_m_s = (data_.state.segment<3>(state_index::kVelocity) - mean).norm();
+    (void)dryden_step(data_.turbulence, data_.turbulence_scales, airspeed_m_s, config_.dt_s,
+                      data_.turbulence_rng);
+  }
   data_.state = next;
   data_.contact = contact;
   if (config_.motor_dynamics) {
@@ -279,6 +346,7 @@ StepResult Simulator::step_unchecked() {
   update_measured_state();
   ++data_.step_count;
   data_.time_s = static_cast<double>(data_.step_count) * config_.dt_s;
+  update_wind();
   return {StepStatus::kOk, 1};
 }
 
@@ -300,7 +368,8 @@ StepResult Simulator::step(std::int64_t n) {
 StateVector Simulator::state_derivative() const {
   HeldRotorTerms<double> held;
   kernel_->prepare(data_.rotor_speed_rad_s, held);
-  return kernel_->derivative(held, data_.state, config_.environment);
+  return kernel_->derivative(held, data_.state, data_.wind_W_m_s,
+                             config_.environment.gravity_W_m_s2);
 }
 
 StateVector Simulator::measured_state_derivative() const {
@@ -309,8 +378,10 @@ StateVector Simulator::measured_state_derivative() const {
 }
 
 WrenchBreakdown Simulator::wrench_breakdown() const {
-  return dronetwin::wrench_breakdown(*model_, config_.disturbances, config_.environment,
-                                     data_.state, data_.rotor_speed_rad_s);
+  Environment env = config_.environment;
+  env.wind_W_m_s = data_.wind_W_m_s;  // the wind at the vehicle now
+  return dronetwin::wrench_breakdown(*model_, config_.disturbances, env, data_.state,
+                                     data_.rotor_speed_rad_s);
 }
 
 }  // namespace dronetwin

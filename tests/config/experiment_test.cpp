@@ -681,6 +681,14 @@ const std::vector<BadCase> kBadCases = {
     {"unknown_key_typo.yaml", {"unknown key 'duratoin_s'", "did you mean 'duration_s'?", "line 4"}},
     {"unsorted_segments.yaml",
      {"input.segments[2].start_s: expected a start after 2 s", "strictly increase", "got 1"}},
+    {"wind_gust_zero_duration.yaml",
+     {"wind.gusts[0].duration_s: expected a number > 0, got 0", "line 7"}},
+    {"wind_shear_inside_roughness.yaml",
+     {"wind.shear: reference_height_m (0.05) must be above twice roughness_length_m (0.04572)",
+      "line 7"}},
+    {"wind_too_many_gusts.yaml", {"wind.gusts: expected at most 8 gusts, got 9", "line 7"}},
+    {"wind_turbulence_typo.yaml",
+     {"wind.turbulence: unknown severity 'moderat'", "did you mean 'moderate'?", "line 5"}},
     {"wrong_rotor_count.yaml",
      {"input.rotor_speeds_rad_s: expected 4 numbers (rotors of qdrone2), got 3"}},
     {"yaml_syntax_error.yaml", {"line 6, column 6: YAML syntax error"}},
@@ -718,7 +726,7 @@ TEST(BadExperimentCorpus, CorpusIsFullyCovered) {
   std::set<std::string> covered;
   for (const BadCase& c : kBadCases) covered.insert(c.file);
   EXPECT_EQ(files, covered);
-  EXPECT_EQ(files.size(), 39u);
+  EXPECT_EQ(files.size(), 43u);
   EXPECT_GE(files.size(), 10u);
 }
 

@@ -13,13 +13,14 @@
 // Column order (log_column_names): t, x, y, z, vx, vy, vz, qw, qx, qy, qz, wx, wy, wz (true state,
 // world position/velocity, q_WB, body rates), omega_0..omega_{N-1} (achieved rotor speeds, rad/s),
 // omega_ref_0..omega_ref_{N-1} (references), [meas_x .. meas_wz (measured state)], in_contact,
-// crashed, [F_<term>_x, F_<term>_y, F_<term>_z, M_<term>_x, M_<term>_y, M_<term>_z for each term,
-// body frame], [<sensor>_t, <sensor>_<channel> for each sensor (its latest delivered reading)],
-// [est_x .. est_wz (the EKF's estimate)], [ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y,
-// u_tau_z, saturated (closed loop: the reference at t, the generalized force of the rotor command
-// in effect from t on, and whether its allocation saturated)]. Bracketed groups are optional; the
-// closed-loop group comes last, so an open-loop log's columns are a prefix of the closed-loop log's
-// with the same settings.
+// crashed, [wind_x, wind_y, wind_z (air velocity at the vehicle, world frame)], [F_<term>_x,
+// F_<term>_y, F_<term>_z, M_<term>_x, M_<term>_y, M_<term>_z for each term, body frame],
+// [<sensor>_t, <sensor>_<channel> for each sensor (its latest delivered reading)], [est_x .. est_wz
+// (the EKF's estimate)], [ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y, u_tau_z, saturated
+// (closed loop: the reference at t, the generalized force of the rotor command in effect from t on,
+// and whether its allocation saturated)]. Bracketed groups are optional; the closed-loop group
+// comes last, so an open-loop log's columns are a prefix of the closed-loop log's with the same
+// settings.
 //
 // log_columns() gives the same names with a unit and a one-line meaning each (written to the
 // log.json sidecar, io/log_metadata.hpp); the whole format is described in docs/log-format.md.
@@ -57,6 +58,9 @@ struct LogLayout {
   /// After the sensors, before est_*: per depth camera <name>_t (when its latest frame was
   /// taken) and <name>_frame (that frame's index in <name>.npy), NaN before the first.
   std::vector<DepthCameraSpec> depth_cameras = {};
+  /// wind_x, wind_y, wind_z after `crashed`: the air velocity at the vehicle (logged when the
+  /// wind varies: shear, gusts or turbulence).
+  bool wind = false;
 };
 
 /// One column of a log: its header name, its unit ("s", "m", "m/s", "1" (dimensionless, e.g. a

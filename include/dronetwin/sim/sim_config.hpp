@@ -1,11 +1,13 @@
 #pragma once
 // Run settings of a Simulator (everything that is not the airframe): step size, integrator,
-// which disturbance terms apply, environment, noise, ground and divergence limits, seed.
+// which disturbance terms apply, environment, wind field, noise, ground and divergence limits,
+// seed.
 
 #include <cstdint>
 
 #include "dronetwin/dynamics/environment.hpp"
 #include "dronetwin/dynamics/ground.hpp"
+#include "dronetwin/dynamics/wind_field.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
 #include "dronetwin/integrators/integrator.hpp"
 #include "dronetwin/noise/ornstein_uhlenbeck.hpp"
@@ -33,6 +35,8 @@ struct SimConfig {
   bool motor_dynamics = true;
   DisturbanceSwitches disturbances{};
   Environment environment{};
+  /// Shear, gusts and turbulence around environment.wind_W_m_s (default: none, constant wind).
+  WindSettings wind{};
   NoiseConfig noise{};
   GroundConfig ground{};
   DivergenceLimits divergence{};

@@ -2,7 +2,7 @@
 // Simulator: one vehicle, steppable on demand, deterministic.
 //
 // It owns the run settings (SimConfig), the mutable data (SimData: rigid-body state, rotor speeds
-// and references, time, noise processes, random stream, contact) and shares the immutable
+// and references, time, noise processes, random streams, wind, contact) and shares the immutable
 // VehicleModel. Copying a Simulator copies the data and shares the model: cheap, and copies can
 // be stepped on different threads. Nothing in it is global.
 //
@@ -26,6 +26,12 @@
 // threads). step(n), reset() and the setters detect a call from a second thread while another is
 // running and throw SimulationError (Python RuntimeError) instead of mixing the two; the
 // single-step step() notices another thread's step(n), run or reset (one relaxed load).
+//
+// Wind (docs/wind.md): the air velocity of a step is SimData::wind_W_m_s, held over the step:
+// the mean wind of SimConfig::environment, sheared to the height at the step's start, plus the
+// 1 - cos gusts at its start time, plus Dryden turbulence along the mean wind's axes. An accepted
+// step advances the turbulence with the height and airspeed of its start, then the wind is
+// recomputed for the next step.
 //
 // Scene: with set_scene() a step whose motion brings the model's collision shape into a gate's
 // frame or an obstacle (world/collision.hpp) is refused like a diverged one, with status
@@ -102,6 +108,13 @@ struct StepFailure {
   SceneContact contact;
 };
 
+/// The seed of the turbulence's stream (SimData::turbulence_rng) for the run seed `seed`: the seed
+/// with a fixed mask ("wind" in ASCII) flipped, a bijection, so that it never equals the noise
+/// stream's seed of the same run.
+constexpr std::uint64_t turbulence_stream_seed(std::uint64_t seed) {
+  return seed ^ 0x77696e64'00000000ull;
+}
+
 /// Everything that changes while a simulator runs. Plain data: no heap, copyable as bytes.
 struct SimData {
   double time_s = 0.0;
@@ -115,6 +128,16 @@ struct SimData {
   OrnsteinUhlenbeck state_noise;
   OrnsteinUhlenbeck derivative_noise;
   Random rng;
+  /// Air velocity at the vehicle, world frame, m/s, held over the next step: the mean wind
+  /// (sheared at the current height) plus the gusts at time_s plus the turbulence; the mean wind
+  /// itself when SimConfig::wind is off. Kept current like measured_state.
+  Vec3 wind_W_m_s = Vec3::Zero();
+  /// Dryden filters (unit-variance states), advanced on every accepted step while turbulence is
+  /// on, and the scales at the current height. Their random stream is separate from `rng`, so
+  /// switching turbulence on leaves the OU noise's samples as they were.
+  DrydenState turbulence;
+  DrydenScales turbulence_scales;
+  Random turbulence_rng;
   ContactState contact;
   StepStatus status = StepStatus::kOk;
   StepFailure failure;
@@ -194,7 +217,13 @@ class Simulator {
   SimData& mutable_data() { return data_; }
 
   // ---- run settings that may change mid-run -------------------------------------------------
+  /// The mean wind (at the shear's reference height when sheared), from the next step on.
   void set_wind(const Vec3& wind_W_m_s);
+  /// Shear, gusts and turbulence (validated as in validate(SimConfig)), from the next step on.
+  /// The turbulence filters go on from their current state, which reset() draws developed.
+  void set_wind_field(const WindSettings& wind);
+  /// The air velocity at the vehicle now (SimData::wind_W_m_s), world frame, m/s.
+  const Vec3& wind_W_m_s() const { return data_.wind_W_m_s; }
   void set_disturbances(const DisturbanceSwitches& switches);
   void set_noise_enabled(bool enabled);
   /// Gates and obstacles the vehicle may not touch (null: none, the default). Kept over reset();
@@ -217,6 +246,7 @@ class Simulator {
   StepStatus check_state(const StateVector& x) const;
   StepResult step_unchecked();
   void update_measured_state();
+  void update_wind();
 
   std::shared_ptr<const VehicleModel> model_;
   SimConfig config_;
