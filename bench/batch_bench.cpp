@@ -5,6 +5,7 @@
 // BM_*Noise: the same with OU state noise on (13 counter-based normals per vehicle-step).
 // BM_*Se3: the SE(3) controller and the thrust-first allocation before every physics step
 // (BatchSe3Controller), each lane holding its own setpoint, no restarts needed.
+// BM_*WindField: shear, a gust and moderate Dryden turbulence (a per-lane scalar pass per step).
 //
 // "steps per call" 1 is an RL loop that acts every physics step; 10 is a 100 Hz policy over a
 // 1 kHz physics (the pack stays in registers for the 10 steps).
@@ -21,7 +22,7 @@ namespace {
 
 using namespace dronetwin;
 
-enum class Mode { kOpenLoop, kNoise, kSe3 };
+enum class Mode { kOpenLoop, kNoise, kSe3, kWindField };
 
 template <class T>
 void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
@@ -33,6 +34,12 @@ void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
   SimConfig cfg;
   cfg.environment.wind_W_m_s << 1.0, -0.5, 0.0;  // non-zero air velocity: drag terms do work
   cfg.noise.enabled = mode == Mode::kNoise;
+  if (mode == Mode::kWindField) {  // shear, a gust over the whole run, moderate turbulence
+    cfg.wind.shear.enabled = true;
+    cfg.wind.gusts[0] = {0.0, 10.0, Vec3(0.0, 1.0, 0.0)};
+    cfg.wind.num_gusts = 1;
+    cfg.wind.turbulence = TurbulenceSettings::of(TurbulenceSeverity::kModerate);
+  }
   BatchSimulator<T> batch(model, cfg, n, threads);
   Se3Options options;
   options.gravity_compensation = true;
@@ -85,6 +92,7 @@ void BM_BatchFloat(benchmark::State& s) { run<float>(s); }
 void BM_BatchDoubleNoise(benchmark::State& s) { run<double>(s, Mode::kNoise); }
 void BM_BatchFloatNoise(benchmark::State& s) { run<float>(s, Mode::kNoise); }
 void BM_BatchDoubleSe3(benchmark::State& s) { run<double>(s, Mode::kSe3); }
+void BM_BatchDoubleWindField(benchmark::State& s) { run<double>(s, Mode::kWindField); }
 void BM_BatchFloatSe3(benchmark::State& s) { run<float>(s, Mode::kSe3); }
 
 void sizes(benchmark::internal::Benchmark* b) {
@@ -101,6 +109,7 @@ BENCHMARK(BM_BatchDoubleNoise)->Apply(sizes);
 BENCHMARK(BM_BatchFloatNoise)->Apply(sizes);
 BENCHMARK(BM_BatchDoubleSe3)->Apply(sizes);
 BENCHMARK(BM_BatchFloatSe3)->Apply(sizes);
+BENCHMARK(BM_BatchDoubleWindField)->Apply(sizes);
 
 }  // namespace
 

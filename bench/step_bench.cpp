@@ -1,5 +1,6 @@
 // Cost of one physics step of the full QDrone2 model: RK4, every disturbance term, motor lag,
-// ground check; single thread. Run: build/bench/step_bench (see docs/performance.md).
+// ground check; single thread. *WindField: shear, a gust and moderate Dryden turbulence. Run:
+// build/bench/step_bench (see docs/performance.md).
 
 #include <benchmark/benchmark.h>
 
@@ -17,12 +18,19 @@ std::shared_ptr<const VehicleModel> model(const char* name) {
       load_vehicle_model(std::string(DRONETWIN_SOURCE_DIR) + "/models/" + name + ".yaml"));
 }
 
-void run(benchmark::State& state, const char* name, Integrator integrator, bool noise) {
+void run(benchmark::State& state, const char* name, Integrator integrator, bool noise,
+         bool wind_field = false) {
   const auto m = model(name);
   SimConfig cfg;
   cfg.integrator = integrator;
   cfg.noise.enabled = noise;
   cfg.environment.wind_W_m_s << 1.0, -0.5, 0.0;  // non-zero air velocity: drag terms do work
+  if (wind_field) {  // shear, a gust that lasts the whole run, moderate Dryden turbulence
+    cfg.wind.shear.enabled = true;
+    cfg.wind.gusts[0] = {0.0, 10.0, Vec3(0.0, 1.0, 0.0)};
+    cfg.wind.num_gusts = 1;
+    cfg.wind.turbulence = TurbulenceSettings::of(TurbulenceSeverity::kModerate);
+  }
   Simulator sim(m, cfg);
   RotorVector ref = m->hover_speeds_rad_s();
   ref[0] *= 1.001;  // a little asymmetry so the body moves and rotates
@@ -48,10 +56,14 @@ void run(benchmark::State& state, const char* name, Integrator integrator, bool 
 void BM_StepQDrone2Rk4(benchmark::State& s) { run(s, "qdrone2", Integrator::kRk4, false); }
 void BM_StepQDrone2Rk4Noise(benchmark::State& s) { run(s, "qdrone2", Integrator::kRk4, true); }
 void BM_StepQDrone2Euler(benchmark::State& s) { run(s, "qdrone2", Integrator::kEuler, false); }
+void BM_StepQDrone2Rk4WindField(benchmark::State& s) {
+  run(s, "qdrone2", Integrator::kRk4, false, true);
+}
 void BM_StepHexarotorRk4(benchmark::State& s) { run(s, "hexarotor", Integrator::kRk4, false); }
 
 BENCHMARK(BM_StepQDrone2Rk4);
 BENCHMARK(BM_StepQDrone2Rk4Noise);
+BENCHMARK(BM_StepQDrone2Rk4WindField);
 BENCHMARK(BM_StepQDrone2Euler);
 BENCHMARK(BM_StepHexarotorRk4);
 

@@ -193,7 +193,13 @@ void bind_one(py::module_& m, const char* class_name, const char* dtype) {
             B& b = self.cast<B&>();
             return lane_view<T>(b, b.wind_data(), 3, self, true);
           },
-          "(N, 3) writable view of each lane's wind, world frame, m/s.")
+          "(N, 3) writable view of each lane's wind, world frame, m/s: its mean wind when "
+          "config.wind adds shear, gusts or turbulence (air_velocity(lane) is the total).")
+      .def(
+          "air_velocity", [](const B& b, int lane) { return copy_of(b.air_velocity(lane)); },
+          py::arg("lane"),
+          "Air velocity at the lane's vehicle now (mean wind sheared, gusts, turbulence), held "
+          "over its next step, world frame, m/s.")
       .def_property_readonly(
           "status",
           [](py::object self) {

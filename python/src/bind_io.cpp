@@ -79,6 +79,12 @@ void bind_io(py::module_& m) {
             e.sim.environment.wind_W_m_s = to_fixed<3>(w, "Experiment.wind_m_s");
           })
       .def_property(
+          "faults", [](const Experiment& e) { return fault_list_of(e.sim.faults); },
+          [](Experiment& e, const std::vector<RotorFault>& f) {
+            e.sim.faults = fault_settings_of(f);
+          },
+          "Rotor faults (a list of RotorFault; assign a new list to change them).")
+      .def_property(
           "wind",
           py::cpp_function([](Experiment& e) -> WindSettings& { return e.sim.wind; },
                            py::return_value_policy::reference_internal),

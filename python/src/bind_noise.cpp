@@ -11,14 +11,14 @@
 
 namespace dronetwin::python {
 
-namespace {
-
 TurbulenceSeverity severity_from_name(const std::string& name) {
   if (name == "light") return TurbulenceSeverity::kLight;
   if (name == "moderate") return TurbulenceSeverity::kModerate;
   if (name == "severe") return TurbulenceSeverity::kSevere;
   throw InvalidArgument("severity: expected 'light', 'moderate' or 'severe', got '" + name + "'");
 }
+
+namespace {
 
 // The scales for a severity name, or for an explicit wind at 20 ft when one is given.
 DrydenScales scales_of(double height_m, const std::string& severity,

@@ -193,6 +193,10 @@ void bind_sim(py::module_& m) {
           "First-order motor lag (Eq. 2.43-2.45); off: speed = clamped reference at once.")
       .def_readwrite("disturbances", &SimConfig::disturbances)
       .def_readwrite("environment", &SimConfig::environment)
+      .def_property(
+          "faults", [](const SimConfig& c) { return fault_list_of(c.faults); },
+          [](SimConfig& c, const std::vector<RotorFault>& f) { c.faults = fault_settings_of(f); },
+          "Rotor faults (a list of RotorFault; assign a new list to change them).")
       .def_readwrite("wind", &SimConfig::wind,
                      "Shear, gusts and turbulence around environment.wind_W_m_s (WindSettings).")
       .def_readwrite("noise", &SimConfig::noise)
@@ -370,6 +374,14 @@ void bind_sim(py::module_& m) {
           py::arg("wind_W_m_s"),
           "Mean air velocity, world frame, m/s (at the shear's reference height when the wind is "
           "sheared), from the next step on.")
+      .def(
+          "set_faults",
+          [](Simulator& s, const std::vector<RotorFault>& f) {
+            s.set_faults(fault_settings_of(f));
+          },
+          py::arg("faults"),
+          "Rotor faults (a list of RotorFault) from the next step on; those whose start has "
+          "passed begin at once.")
       .def("set_wind_field", &Simulator::set_wind_field, py::arg("wind"),
            "Shear, gusts and turbulence (WindSettings) from the next step on.")
       .def_property_readonly(

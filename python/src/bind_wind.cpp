@@ -9,18 +9,6 @@
 
 namespace dronetwin::python {
 
-namespace {
-
-TurbulenceSeverity severity_named(const std::string& name) {
-  if (name == "light") return TurbulenceSeverity::kLight;
-  if (name == "moderate") return TurbulenceSeverity::kModerate;
-  if (name == "severe") return TurbulenceSeverity::kSevere;
-  throw InvalidArgument("TurbulenceSettings.of: expected 'light', 'moderate' or 'severe', got '" +
-                        name + "'");
-}
-
-}  // namespace
-
 void bind_wind(py::module_& m) {
   py::class_<WindShear>(m, "WindShear",
                         "Log-law shear of the mean wind (MIL-F-8785C): W(h) = W_ref ln(h / z0) / "
@@ -44,7 +32,7 @@ void bind_wind(py::module_& m) {
       .def_static(
           "of",
           [](const std::string& severity) {
-            return TurbulenceSettings::of(severity_named(severity));
+            return TurbulenceSettings::of(severity_from_name(severity));
           },
           py::arg("severity"), "'light', 'moderate' or 'severe' (W20 = 15, 30, 45 kt), on.")
       .def_readwrite("enabled", &TurbulenceSettings::enabled)

@@ -11,8 +11,11 @@
 #include <pybind11/stl.h>
 
 #include <string>
+#include <vector>
 
 #include "dronetwin/core/types.hpp"
+#include "dronetwin/faults/rotor_fault.hpp"
+#include "dronetwin/noise/dryden.hpp"
 
 namespace dronetwin::python {
 
@@ -31,6 +34,14 @@ void bind_world(py::module_& m);
 void bind_sensors(py::module_& m);
 void bind_noise(py::module_& m);
 void bind_wind(py::module_& m);
+void bind_faults(py::module_& m);
+
+/// 'light', 'moderate' or 'severe' (ValueError naming the choices otherwise).
+TurbulenceSeverity severity_from_name(const std::string& name);
+
+/// Rotor faults as a Python list and back (at most kMaxRotorFaults; ValueError beyond).
+FaultSettings fault_settings_of(const std::vector<RotorFault>& faults);
+std::vector<RotorFault> fault_list_of(const FaultSettings& f);
 
 /// "a float64 array of shape (3,)", "a list of length 2", "a str", for messages.
 std::string describe_object(py::handle obj);

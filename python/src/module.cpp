@@ -97,6 +97,7 @@ PYBIND11_MODULE(_core, m) {
       "The dronetwin version the extension was built as.");
   dp::bind_model(m);
   dp::bind_wind(m);
+  dp::bind_faults(m);
   dp::bind_sim(m);
   dp::bind_control(m);
   dp::bind_io(m);

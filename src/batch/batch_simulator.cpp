@@ -121,12 +121,9 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
     : model_(std::move(model)), config_(std::move(config)) {
   require(model_ != nullptr, "BatchSimulator: model is null");
   validate(config_);
-  // The batch holds each lane's wind over a step as given (set_wind); shear, gusts and turbulence
-  // are stepped by Simulator only. Refused rather than silently flown in constant wind.
-  require(!config_.wind.varies(),
-          "BatchSimulator: wind shear, gusts and turbulence (the config's `wind:`) are simulated "
-          "by Simulator, not by the batched engine; remove them, or vary each lane's wind with "
-          "set_wind()");
+  require(!config_.faults.any(),
+          "BatchSimulator: rotor faults (the config's `faults:`) are flown by Simulator only; "
+          "remove them, or vary a lane's thrust with set_parameter()");
   stride_ = batch_stride<T>(num_vehicles, "BatchSimulator");
   terms_ = ForceTerms::of(config_.disturbances);
   num_vehicles_ = num_vehicles;
@@ -149,6 +146,11 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
   seed_.assign(n, config_.seed);
   noise_key_ = AlignedArray<std::uint64_t>(n);
   for (std::size_t l = 0; l < n; ++l) noise_key_[l] = counter_stream_key(config_.seed, l);
+  if (config_.wind.varies()) {
+    turbulence_.resize(n);
+    turbulence_rng_.resize(n);
+    for (std::size_t l = 0; l < n; ++l) restart_turbulence(l);
+  }
   if (config_.noise.enabled) {
     noise_ = AlignedArray<T>(n * kStateSize);
     measured_ = AlignedArray<T>(n * kStateSize);
@@ -179,6 +181,46 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
   }
   if (config_.noise.enabled)
     for (std::size_t i = 0; i < n * kStateSize; ++i) measured_[i] = state_[i];
+}
+
+template <class T>
+std::uint64_t BatchSimulator<T>::turbulence_seed(std::uint64_t seed, std::size_t lane) {
+  return turbulence_stream_seed(counter_stream_key(seed, lane));
+}
+
+template <class T>
+void BatchSimulator<T>::restart_turbulence(std::size_t l) {
+  if (turbulence_.empty()) return;
+  turbulence_rng_[l].reseed(turbulence_seed(seed_[l], l));
+  turbulence_[l] = dryden_start(turbulence_rng_[l]);
+}
+
+template <class T>
+LaneWind BatchSimulator<T>::lane_wind(std::size_t l, const Vec3& mean_W_m_s, double height_m,
+                                      std::int64_t step) const {
+  // As Simulator::update_wind, for the lane's mean wind, height, time and turbulence state.
+  const WindSettings& w = config_.wind;
+  LaneWind out;
+  out.mean_W_m_s = mean_wind_at(mean_W_m_s, w.shear, height_m);
+  out.wind_W_m_s = out.mean_W_m_s + gust_at(w, static_cast<double>(step) * config_.dt_s);
+  if (w.turbulence.enabled) {
+    out.scales = dryden_low_altitude(height_m, w.turbulence.wind_at_20ft_m_s);
+    out.wind_W_m_s += turbulence_axes(out.mean_W_m_s) * dryden_gust(turbulence_[l], out.scales);
+  }
+  return out;
+}
+
+template <class T>
+Vec3 BatchSimulator<T>::air_velocity(int lane) const {
+  const std::size_t l = lane_index(lane);
+  const auto n = static_cast<std::size_t>(stride_);
+  Vec3 mean;
+  for (int k = 0; k < 3; ++k)
+    mean[k] = static_cast<double>(wind_[static_cast<std::size_t>(k) * n + l]);
+  const double h =
+      static_cast<double>(state_[static_cast<std::size_t>(state_index::kPosition + 2) * n + l]);
+  if (!config_.wind.varies() || !std::isfinite(h) || !mean.allFinite()) return mean;
+  return lane_wind(l, mean, h, step_count_[l]).wind_W_m_s;
 }
 
 template <class T>
@@ -292,6 +334,7 @@ void BatchSimulator<T>::reset(int lane, const StateVector& state,
   }
   status_[l] = static_cast<std::uint8_t>(StepStatus::kOk);
   step_count_[l] = 0;
+  restart_turbulence(l);
 }
 
 template <class T>
@@ -321,6 +364,7 @@ void BatchSimulator<T>::set_seed(int lane, std::uint64_t seed) {
   const std::size_t l = lane_index(lane);
   seed_[l] = seed;
   noise_key_[l] = counter_stream_key(seed, l);
+  restart_turbulence(l);
 }
 
 template <class T>
@@ -400,7 +444,7 @@ int BatchSimulator<T>::run_steps(std::int64_t n, BatchInnerLoop<T>* inner_loop) 
     // hand-out cheap.
     constexpr int kPacksPerTask = 4;
     const int tasks = (num_packs_ + kPacksPerTask - 1) / kPacksPerTask;
-    const bool extras = inner_loop != nullptr || config_.noise.enabled;
+    const bool extras = inner_loop != nullptr || config_.noise.enabled || config_.wind.varies();
     pool_->run(tasks, [this, n, inner_loop, extras](int task) {
       const int end = std::min(num_packs_, (task + 1) * kPacksPerTask);
       for (int c = task * kPacksPerTask; c < end; ++c) {
@@ -486,6 +530,11 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
   }
   Vector3<P> wind;
   for (int k = 0; k < 3; ++k) wind[k] = load<P>(&wind_[k * stride + base]);
+  // With a wind field the array holds each lane's mean wind; `wind` becomes the air velocity of
+  // each step.
+  const bool wind_field = kExtras && config_.wind.varies();
+  const Vector3<P> mean_wind = wind;
+  std::array<LaneWind, kLanes> lane_winds{};
 
   // Which lanes run: ok so far, inside the batch, with valid inputs. A lane whose inputs were
   // written invalid (through the arrays) stops here with a status and is not stepped.
@@ -590,6 +639,20 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
 
   for (std::int64_t s = 0; s < n; ++s) {
     if (stdx::none_of(running)) break;
+    // Wind field: each running lane's air velocity for this step (the inner loop's state
+    // derivative included) from its mean wind (the wind array), height, time and turbulence,
+    // lane by lane in double (Simulator::update_wind).
+    if (wind_field) {
+      for (int l = 0; l < kLanes; ++l) {
+        if (!running[l]) continue;
+        const auto li = static_cast<std::size_t>(l);
+        const Vec3 mean(static_cast<double>(mean_wind[0][l]), static_cast<double>(mean_wind[1][l]),
+                        static_cast<double>(mean_wind[2][l]));
+        lane_winds[li] = lane_wind(base + li, mean, static_cast<double>(x[kPosition + 2][l]),
+                                   step_count_[base + li] + s);
+        for (int k = 0; k < 3; ++k) wind[k][l] = static_cast<T>(lane_winds[li].wind_W_m_s[k]);
+      }
+    }
     if (kExtras && inner_loop != nullptr) {
       // The controller sees what a sensor would: state + noise (ClosedLoop's measured_state()).
       StateVectorT<P> measured = x;
@@ -648,6 +711,19 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
     const M ok = p2 <= max_p2 && v2 <= max_v2 && w2 <= max_w2 && q2 <= P(T(4)) && q2 >= P(T(0.25));
     const M commit = running && ok;
     const M failed = running && !ok;
+    // Turbulence of the committed lanes, with the height (in the scales) and airspeed of the
+    // step's start, as the Simulator advances it.
+    if (wind_field && config_.wind.turbulence.enabled) {
+      for (int l = 0; l < kLanes; ++l) {
+        if (!commit[l]) continue;
+        const auto li = static_cast<std::size_t>(l);
+        const Vec3 v(static_cast<double>(x[kVelocity][l]), static_cast<double>(x[kVelocity + 1][l]),
+                     static_cast<double>(x[kVelocity + 2][l]));
+        (void)dryden_step(turbulence_[base + li], lane_winds[li].scales,
+                          (v - lane_winds[li].mean_W_m_s).norm(), config_.dt_s,
+                          turbulence_rng_[base + li]);
+      }
+    }
     if (stdx::any_of(failed)) {
       for (int l = 0; l < kLanes; ++l) {
         if (!failed[l]) continue;

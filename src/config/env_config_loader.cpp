@@ -117,11 +117,10 @@ EnvFile parse_env_config(const std::string& yaml_text, const std::string& source
   f.model = std::make_shared<const VehicleModel>(load_vehicle_model(model_path));
 
   io_detail::read_sim_settings(rd, top, c.sim);
-  if (c.sim.wind.varies())
-    rd.fail(
-        top.get("wind"), "wind",
-        "shear, gusts and turbulence are not simulated by the batched engine the "
-        "environments run on; randomise the constant wind with randomization.wind_speed_max_m_s");
+  if (c.sim.faults.any())
+    rd.fail(top.get("faults"), "faults",
+            "rotor faults are flown by the Simulator (experiments), not by the batched engine the "
+            "environments run on; randomise the thrust with randomization.thrust_scale");
   c.seed = c.sim.seed;
   const auto name = [&](std::string_view key) { return rd.string(top.get(key), top.path(key)); };
   const auto checked = [&](std::string_view key, auto&& convert) {

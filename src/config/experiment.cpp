@@ -48,7 +48,7 @@ const Names kTopLevelKeys = {
     "name",       "description",    "model",         "seed",     "duration_s",   "physics_dt_s",
     "integrator", "motor_dynamics", "noise",         "wind_m_s", "gravity_m_s2", "disturbances",
     "ground",     "divergence",     "initial_state", "log",      "metrics",      "input",
-    "sensors",    "estimation",     "scene",         "wind"};
+    "sensors",    "estimation",     "scene",         "wind",     "faults"};
 const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
 const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
 const Names kBlockKeys = {"a", "b"};
@@ -59,6 +59,8 @@ const Names kShearKeys = {"reference_height_m", "roughness_length_m"};
 const Names kTurbulenceKeys = {"wind_at_20ft_m_s"};
 const Names kTurbulenceSeverities = {"none", "light", "moderate", "severe"};
 const Names kGustKeys = {"start_s", "duration_s", "amplitude_m_s"};
+const Names kFaultKeys = {"type", "rotor", "start_s", "effectiveness"};
+const Names kFaultTypes(kRotorFaultNames.begin(), kRotorFaultNames.end());
 const Names kDivergenceKeys = {"max_position_m", "max_speed_m_s", "max_angular_speed_rad_s"};
 const Names kInitialStateKeys = {"position_m",  "velocity_m_s",           "quaternion_wxyz",
                                  "euler_rad",   "angular_velocity_rad_s", "rotor_speeds_rad_s",
@@ -270,6 +272,41 @@ WindSettings read_wind(const Reader& rd, const YAML::Node& node, const std::stri
     w.num_gusts = static_cast<int>(list.size());
   }
   return w;
+}
+
+/// `faults:` (docs/faults.md): a list of {type, rotor, start_s[, effectiveness]}.
+FaultSettings read_faults(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  FaultSettings f;
+  if (!node.IsSequence())
+    rd.fail(node, path, "expected a list of faults ({type, rotor, start_s, effectiveness})");
+  if (node.size() > static_cast<std::size_t>(kMaxRotorFaults))
+    rd.fail(node, path,
+            detail::concat("expected at most ", kMaxRotorFaults, " faults, got ", node.size()));
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    const std::string item = detail::concat(path, "[", i, "]");
+    const Map m = rd.map(node[i], item, kFaultKeys, "a map {type, rotor, start_s, effectiveness}");
+    RotorFault& r = f.rotor[i];
+    r.kind = static_cast<RotorFaultKind>(
+        rd.choice(m.required("type"), m.path("type"), kFaultTypes, "fault type"));
+    r.rotor = rd.integer<int>(m.required("rotor"), m.path("rotor"), "a rotor index >= 0");
+    if (r.rotor < 0)
+      rd.fail(m.get("rotor"), m.path("rotor"),
+              detail::concat("expected a rotor index >= 0, got ", r.rotor));
+    r.start_s = rd.number(m.required("start_s"), m.path("start_s"));
+    if (r.kind == RotorFaultKind::kEffectiveness) {
+      const YAML::Node e = m.required("effectiveness");
+      r.effectiveness = rd.number(e, m.path("effectiveness"));
+      if (r.effectiveness < 0.0 || r.effectiveness > 1.0)
+        rd.fail(e, m.path("effectiveness"),
+                "expected the fraction of thrust left, in [0, 1], got " + e.Scalar());
+    } else if (m.has("effectiveness")) {
+      rd.fail(m.get("effectiveness"), m.path("effectiveness"),
+              detail::concat("only a rotor_effectiveness fault has an effectiveness (this is a ",
+                             kRotorFaultNames[static_cast<std::size_t>(r.kind)], ")"));
+    }
+  }
+  f.num_rotor_faults = static_cast<int>(node.size());
+  return f;
 }
 
 DivergenceLimits read_divergence(const Reader& rd, const YAML::Node& node,
@@ -1044,6 +1081,7 @@ void read_sim_settings(const Reader& rd, const Map& top, SimConfig& sim) {
   if (top.has("ground")) sim.ground = read_ground(rd, top.get("ground"), "ground");
   if (top.has("divergence"))
     sim.divergence = read_divergence(rd, top.get("divergence"), "divergence");
+  if (top.has("faults")) sim.faults = read_faults(rd, top.get("faults"), "faults");
 }
 
 std::shared_ptr<const Reference> read_reference_spec(const Reader& rd, const YAML::Node& node,
@@ -1218,6 +1256,11 @@ void check_against_model(const Experiment& e, const VehicleModel& model) {
                  [&](const ControllerLoopInput&) {},
              },
              e.input);
+  for (int j = 0; j < e.sim.faults.num_rotor_faults; ++j) {
+    const int rotor = e.sim.faults.rotor[static_cast<std::size_t>(j)].rotor;
+    require(rotor < model.num_rotors(), e.source, ": faults[", j, "].rotor: expected 0 .. ",
+            model.num_rotors() - 1, " (rotors of ", model.name(), "), got ", rotor);
+  }
 }
 
 }  // namespace dronetwin

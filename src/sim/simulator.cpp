@@ -1,6 +1,8 @@
 #include "dronetwin/sim/simulator.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/dynamics/ground.hpp"
@@ -45,7 +47,34 @@ void validate_wind(const WindSettings& w) {
   }
 }
 
+void validate_faults(const FaultSettings& f) {
+  require(f.num_rotor_faults >= 0 && f.num_rotor_faults <= kMaxRotorFaults,
+          "simulation config: faults: expected 0 .. ", kMaxRotorFaults, " rotor faults, got ",
+          f.num_rotor_faults);
+  for (int j = 0; j < f.num_rotor_faults; ++j) {
+    const RotorFault& r = f.rotor[static_cast<std::size_t>(j)];
+    const auto kind = static_cast<std::size_t>(r.kind);
+    require(kind < kRotorFaultNames.size(), "simulation config: faults[", j,
+            "].type: not a fault type (", kind, ")");
+    require(r.rotor >= 0 && r.rotor < kMaxRotors, "simulation config: faults[", j,
+            "].rotor: expected a rotor index, got ", r.rotor);
+    require(std::isfinite(r.start_s), "simulation config: faults[", j,
+            "].start_s: expected a finite time, got ", r.start_s);
+    require(std::isfinite(r.effectiveness) && r.effectiveness >= 0.0 && r.effectiveness <= 1.0,
+            "simulation config: faults[", j, "].effectiveness: expected a fraction in [0, 1], got ",
+            r.effectiveness);
+  }
+}
+
 }  // namespace
+
+/// Lost-effectiveness faults in the order they begin (ties in file order): models[k] and
+/// kernels[k] have the first k + 1 of them applied, each scaling its rotor's thrust polynomial.
+struct FaultedForces {
+  std::vector<int> order;
+  std::vector<VehicleModelTpl<double>> models;
+  std::vector<ForceKernel<double>> kernels;
+};
 
 void validate(const SimConfig& c) {
   require(std::isfinite(c.dt_s) && c.dt_s > 0.0 && c.dt_s <= 0.1,
@@ -53,6 +82,7 @@ void validate(const SimConfig& c) {
   require_finite_vec(c.environment.gravity_W_m_s2, "environment.gravity");
   require_finite_vec(c.environment.wind_W_m_s, "environment.wind");
   validate_wind(c.wind);
+  validate_faults(c.faults);
   const OuParameters& p = c.noise.parameters;
   const double drift_scale = p.drift == OuDrift::kPerSample ? 1.0 : c.dt_s;
   for (int k = 0; k < 4; ++k) {
@@ -87,8 +117,15 @@ Simulator::Simulator(std::shared_ptr<const VehicleModel> model, SimConfig config
   require(model_ != nullptr, "Simulator: model is null");
   validate(config_);
   motors_ = discretize_motors(*model_, config_.dt_s);
+  for (int j = 0; j < config_.faults.num_rotor_faults; ++j) {
+    const int rotor = config_.faults.rotor[static_cast<std::size_t>(j)].rotor;
+    require(rotor < model_->num_rotors(), "simulation config: faults[", j,
+            "].rotor: expected 0 .. ", model_->num_rotors() - 1, " (rotors of '", model_->name(),
+            "'), got ", rotor);
+  }
   kernel_ =
       std::make_shared<const ForceKernel<double>>(*model_, ForceTerms::of(config_.disturbances));
+  build_fault_forces();
   data_.state_noise = OrnsteinUhlenbeck(config_.noise.parameters, config_.dt_s);
   data_.derivative_noise = OrnsteinUhlenbeck(config_.noise.parameters, config_.dt_s);
   reset(hover_state(Vec3::Zero()));
@@ -134,6 +171,8 @@ void Simulator::reset(const StateVector& state, const RotorVector& rotor_speeds_
   // it on mid-run meets developed gusts too).
   data_.turbulence_rng.reseed(turbulence_stream_seed(config_.seed));
   data_.turbulence = dryden_start(data_.turbulence_rng);
+  data_.active_faults = 0;
+  data_.stuck_speed_rad_s = {};
   data_.contact = ContactState{};
   if (config_.ground.enabled && data_.state[state_index::kPosition + 2] <= 0.0) {
     data_.contact.in_contact = true;
@@ -218,6 +257,67 @@ void Simulator::set_disturbances(const DisturbanceSwitches& switches) {
   const SingleThreadGuard::Hold hold(guard_, "Simulator::set_disturbances");
   config_.disturbances = switches;
   kernel_ = std::make_shared<const ForceKernel<double>>(*model_, ForceTerms::of(switches));
+  build_fault_forces();
+}
+
+void Simulator::set_faults(const FaultSettings& faults) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_faults");
+  validate_faults(faults);
+  for (int j = 0; j < faults.num_rotor_faults; ++j) {
+    const int rotor = faults.rotor[static_cast<std::size_t>(j)].rotor;
+    require(rotor < model_->num_rotors(), "faults[", j, "].rotor: expected 0 .. ",
+            model_->num_rotors() - 1, " (rotors of '", model_->name(), "'), got ", rotor);
+  }
+  config_.faults = faults;
+  data_.active_faults = 0;
+  build_fault_forces();
+}
+
+void Simulator::build_fault_forces() {
+  const FaultSettings& f = config_.faults;
+  std::vector<int> order;
+  for (int j = 0; j < f.num_rotor_faults; ++j)
+    if (f.rotor[static_cast<std::size_t>(j)].kind == RotorFaultKind::kEffectiveness)
+      order.push_back(j);
+  if (order.empty()) {
+    faulted_.reset();
+    return;
+  }
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return f.rotor[static_cast<std::size_t>(a)].start_s <
+           f.rotor[static_cast<std::size_t>(b)].start_s;
+  });
+  auto forces = std::make_shared<FaultedForces>();
+  forces->order = order;
+  VehicleParametersTpl<double> p = model_->parameters();
+  const ForceTerms terms = ForceTerms::of(config_.disturbances);
+  for (const int j : order) {
+    const RotorFault& fault = f.rotor[static_cast<std::size_t>(j)];
+    for (double& k : p.rotors[static_cast<std::size_t>(fault.rotor)].thrust_coefficients)
+      k *= fault.effectiveness;
+    forces->models.emplace_back(p);
+    forces->kernels.emplace_back(forces->models.back(), terms);
+  }
+  faulted_ = std::move(forces);
+}
+
+std::size_t Simulator::effectiveness_stage(double time_s) const {
+  if (faulted_ == nullptr) return 0;
+  // The faults begin in `order`, so those acting now are its first n.
+  std::size_t n = 0;
+  for (const int j : faulted_->order)
+    n += config_.faults.rotor[static_cast<std::size_t>(j)].active_at(time_s, config_.dt_s);
+  return n;
+}
+
+const ForceKernel<double>& Simulator::active_kernel(double time_s) const {
+  const std::size_t n = effectiveness_stage(time_s);
+  return n == 0 ? *kernel_ : faulted_->kernels[n - 1];
+}
+
+const VehicleModelTpl<double>& Simulator::active_model(double time_s) const {
+  const std::size_t n = effectiveness_stage(time_s);
+  return n == 0 ? static_cast<const VehicleModelTpl<double>&>(*model_) : faulted_->models[n - 1];
 }
 
 void Simulator::set_scene(std::shared_ptr<const Track> scene) {
@@ -295,9 +395,9 @@ StepResult Simulator::step_unchecked() {
                           "); call reset() first");
   }
   // Rotor speeds are held over the step: do their part of the force model once.
-  StateVector next =
-      held_rotor_step(*kernel_, config_.integrator, data_.state, data_.rotor_speed_rad_s,
-                      data_.wind_W_m_s, config_.environment.gravity_W_m_s2, config_.dt_s);
+  StateVector next = held_rotor_step(active_kernel(data_.time_s), config_.integrator, data_.state,
+                                     data_.rotor_speed_rad_s, data_.wind_W_m_s,
+                                     config_.environment.gravity_W_m_s2, config_.dt_s);
   // Contact is resolved on a copy: a refused step must not change it (nor anything else).
   ContactState contact = data_.contact;
   resolve_ground_contact(config_.ground, data_.state, config_.dt_s, next, contact);
@@ -333,11 +433,36 @@ StepResult Simulator::step_unchecked() {
   }
   data_.state = next;
   data_.contact = contact;
+  // Faults of the motors: a stopped rotor is driven to zero, a stuck one keeps the speed it had
+  // when its fault began (recorded at that step, whose forces used it).
+  const FaultSettings& faults = config_.faults;
+  RotorVector reference = data_.rotor_speed_reference_rad_s;
+  std::uint32_t active = 0;
+  if (faults.any()) {
+    active = faults.active_at(data_.time_s, config_.dt_s);
+    for (int j = 0; j < faults.num_rotor_faults; ++j) {
+      const RotorFault& f = faults.rotor[static_cast<std::size_t>(j)];
+      if ((active & (1u << j)) == 0) continue;
+      if (f.kind == RotorFaultKind::kStop) reference[f.rotor] = 0.0;
+      if (f.kind == RotorFaultKind::kStuck && (data_.active_faults & (1u << j)) == 0)
+        data_.stuck_speed_rad_s[static_cast<std::size_t>(f.rotor)] =
+            data_.rotor_speed_rad_s[f.rotor];
+    }
+  }
   if (config_.motor_dynamics) {
-    advance_motors(m, motors_, data_.rotor_speed_reference_rad_s, data_.rotor_speed_rad_s);
+    advance_motors(m, motors_, reference, data_.rotor_speed_rad_s);
   } else {
     for (int i = 0; i < m.num_rotors(); ++i)
-      data_.rotor_speed_rad_s[i] = clamp_speed(m.rotor(i), data_.rotor_speed_reference_rad_s[i]);
+      data_.rotor_speed_rad_s[i] = clamp_speed(m.rotor(i), reference[i]);
+  }
+  if (faults.any()) {
+    for (int j = 0; j < faults.num_rotor_faults; ++j) {
+      const RotorFault& f = faults.rotor[static_cast<std::size_t>(j)];
+      if ((active & (1u << j)) != 0 && f.kind == RotorFaultKind::kStuck)
+        data_.rotor_speed_rad_s[f.rotor] =
+            data_.stuck_speed_rad_s[static_cast<std::size_t>(f.rotor)];
+    }
+    data_.active_faults = active;
   }
   if (config_.noise.enabled) {
     data_.state_noise.step(data_.rng);
@@ -367,9 +492,9 @@ StepResult Simulator::step(std::int64_t n) {
 
 StateVector Simulator::state_derivative() const {
   HeldRotorTerms<double> held;
-  kernel_->prepare(data_.rotor_speed_rad_s, held);
-  return kernel_->derivative(held, data_.state, data_.wind_W_m_s,
-                             config_.environment.gravity_W_m_s2);
+  const ForceKernel<double>& kernel = active_kernel(data_.time_s);
+  kernel.prepare(data_.rotor_speed_rad_s, held);
+  return kernel.derivative(held, data_.state, data_.wind_W_m_s, config_.environment.gravity_W_m_s2);
 }
 
 StateVector Simulator::measured_state_derivative() const {
@@ -380,8 +505,8 @@ StateVector Simulator::measured_state_derivative() const {
 WrenchBreakdown Simulator::wrench_breakdown() const {
   Environment env = config_.environment;
   env.wind_W_m_s = data_.wind_W_m_s;  // the wind at the vehicle now
-  return dronetwin::wrench_breakdown(*model_, config_.disturbances, env, data_.state,
-                                     data_.rotor_speed_rad_s);
+  return dronetwin::wrench_breakdown(active_model(data_.time_s), config_.disturbances, env,
+                                     data_.state, data_.rotor_speed_rad_s);
 }
 
 }  // namespace dronetwin

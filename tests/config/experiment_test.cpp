@@ -642,6 +642,13 @@ const std::vector<BadCase> kBadCases = {
      {"scene: ", "flat_box.yaml: obstacles[0].size: expected three positive extents", "line 5"}},
     {"dt_too_large.yaml", {"physics_dt_s: expected a step in (0, 0.1] s, got 0.5"}},
     {"every_n_steps_zero.yaml", {"log.every_n_steps: expected an integer >= 1, got 0"}},
+    {"fault_effectiveness_above_one.yaml",
+     {"faults[0].effectiveness: expected the fraction of thrust left, in [0, 1], got 1.5",
+      "line 6"}},
+    {"fault_rotor_out_of_range.yaml",
+     {"faults[0].rotor: expected 0 .. 3 (rotors of qdrone2), got 4"}},
+    {"fault_type_typo.yaml",
+     {"faults[0].type: unknown fault type 'rotor_stopp'", "did you mean 'rotor_stop'?", "line 6"}},
     {"first_segment_not_at_zero.yaml", {"input.segments[0].start_s: expected 0", "got 0.5"}},
     {"force_three_numbers.yaml", {"input.u: expected 4 numbers", "got 3"}},
     {"hover_input_extra_key.yaml", {"input: unknown key 'rotor_speeds_rad_s' (valid keys: type)"}},
@@ -726,7 +733,7 @@ TEST(BadExperimentCorpus, CorpusIsFullyCovered) {
   std::set<std::string> covered;
   for (const BadCase& c : kBadCases) covered.insert(c.file);
   EXPECT_EQ(files, covered);
-  EXPECT_EQ(files.size(), 43u);
+  EXPECT_EQ(files.size(), 46u);
   EXPECT_GE(files.size(), 10u);
 }
 

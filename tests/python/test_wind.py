@@ -61,9 +61,19 @@ def test_bad_wind_settings_are_named(qdrone2):
     cfg.wind.gusts = [dt.Gust(0.0, -1.0, [1.0, 0.0, 0.0])]
     with pytest.raises(ValueError, match=r"wind.gusts\[0\].duration_s: expected > 0, got -1"):
         dt.Simulator(qdrone2, cfg)
-    with pytest.raises(ValueError, match="batched engine"):
-        cfg.wind = dt.WindSettings(turbulence=dt.TurbulenceSettings.of("light"))
-        dt.BatchSimulator(qdrone2, cfg, 2)
+
+
+def test_a_batch_flies_the_wind_field_lane_by_lane(qdrone2):
+    cfg = dt.SimConfig(seed=2)
+    cfg.environment.wind_W_m_s = np.array([3.0, 0.0, 0.0])
+    cfg.wind = dt.WindSettings(turbulence=dt.TurbulenceSettings.of("light"))
+    batch = dt.BatchSimulator(qdrone2, cfg, 2)
+    for lane in range(2):
+        batch.reset(lane, dt.Simulator.hover_state([0.0, 0.0, 1.5]), qdrone2.hover_speeds_rad_s())
+    batch.step(200)
+    np.testing.assert_array_equal(batch.wind, [[3.0, 0.0, 0.0]] * 2)  # the lanes' mean wind
+    a, b = batch.air_velocity(0), batch.air_velocity(1)
+    assert a.shape == (3,) and not np.array_equal(a, b)  # each lane its own gusts
 
 
 def test_an_experiment_logs_the_wind_it_flies_in(tmp_path):

@@ -393,10 +393,12 @@ TEST(VecEnvRandomization, ParametersAreDrawnPerEnvWithinTheirRanges) {
 
 /// Observations, rewards and flags of the first `n_compare` envs over a run with noise,
 /// randomisation and auto-resets.
-std::vector<double> run_for_determinism(int n, int threads, int n_compare) {
+std::vector<double> run_for_determinism(int n, int threads, int n_compare,
+                                        const std::string& more = "") {
   auto env = make_env("racing", n,
                       "{noise: true, episode_time_s: 0.3, randomization: {mass_scale: [0.9, 1.1],"
-                      " position_m: [0.3, 0.3, 0.2], wind_speed_max_m_s: 1.0}}",
+                      " position_m: [0.3, 0.3, 0.2], wind_speed_max_m_s: 1.0}" +
+                          more + "}",
                       threads);
   env.reset(11);
   std::vector<double> out, act(static_cast<std::size_t>(3 * n));
@@ -422,6 +424,23 @@ TEST(VecEnvDeterminism, BitwiseAcrossThreadsAndBatchSizes) {
   ASSERT_EQ(one.size(), two.size());
   EXPECT_EQ(std::memcmp(one.data(), two.data(), one.size() * sizeof(double)), 0);
   EXPECT_EQ(std::memcmp(one.data(), big.data(), one.size() * sizeof(double)), 0);
+}
+
+// A wind field (shear, a gust, turbulence) in the env file: every env has its own gusts, drawn
+// anew each episode from its counter stream, so the results stay bitwise across threads and
+// batch sizes; and the wind changes the flight.
+TEST(VecEnvDeterminism, AWindFieldKeepsThemBitwiseAcrossThreadsAndBatchSizes) {
+  const std::string wind =
+      ", wind: {shear: true, turbulence: moderate, "
+      "gusts: [{start_s: 0.05, duration_s: 0.1, amplitude_m_s: [0, 2, 0]}]}";
+  const std::vector<double> one = run_for_determinism(5, 1, 5, wind);
+  const std::vector<double> two = run_for_determinism(5, 2, 5, wind);
+  const std::vector<double> big = run_for_determinism(test::full_or_sanitized(40, 11), 2, 5, wind);
+  ASSERT_EQ(one.size(), two.size());
+  EXPECT_EQ(std::memcmp(one.data(), two.data(), one.size() * sizeof(double)), 0);
+  EXPECT_EQ(std::memcmp(one.data(), big.data(), one.size() * sizeof(double)), 0);
+  const std::vector<double> calm = run_for_determinism(5, 1, 5);
+  EXPECT_NE(std::memcmp(one.data(), calm.data(), one.size() * sizeof(double)), 0);
 }
 
 TEST(VecEnvBadInput, ConfigErrorsNameTheField) {

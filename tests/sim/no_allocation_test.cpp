@@ -63,6 +63,33 @@ TEST(NoAllocation, SteppingDoesNotAllocate) {
   EXPECT_EQ(g_allocations.load() - before, 0);
 }
 
+// A wind field (shear, a gust, turbulence) and rotor faults that begin mid-run (a lost
+// effectiveness swaps in a prebuilt kernel, a stuck motor records its speed).
+TEST(NoAllocation, WindFieldAndFaultsDoNotAllocate) {
+  SimConfig cfg;
+  cfg.environment.wind_W_m_s << 3.0, 0.0, 0.0;
+  cfg.wind.shear.enabled = true;
+  cfg.wind.turbulence = TurbulenceSettings::of(TurbulenceSeverity::kModerate);
+  cfg.wind.gusts[0] = {0.2, 0.5, Vec3(0.0, 2.0, 0.0)};
+  cfg.wind.num_gusts = 1;
+  cfg.faults.rotor[0] = RotorFault{RotorFaultKind::kEffectiveness, 0, 0.5, 0.7};
+  cfg.faults.rotor[1] = RotorFault{RotorFaultKind::kStuck, 1, 1.0, 1.0};
+  cfg.faults.num_rotor_faults = 2;
+  const auto model = test::load_model("qdrone2");
+  Simulator sim(model, cfg);
+  sim.reset(Simulator::hover_state(Vec3(0, 0, 1.0)), model->hover_speeds_rad_s());
+  sim.set_rotor_speed_reference(model->hover_speeds_rad_s());
+  const long before = g_allocations.load();
+  for (int k = 0; k < 1500; ++k) {
+    ASSERT_TRUE(sim.step().ok()) << sim.failure_message();
+    volatile double sink = sim.state_derivative()[5] + sim.wind_W_m_s().x() +
+                           sim.wrench_breakdown()[Term::kThrust].force_B.z();
+    (void)sink;
+  }
+  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_EQ(sim.data().active_faults, 3u);
+}
+
 // The batch (issue: no allocation per step): stepping with two threads, parameters changed
 // between steps (the packs are rebuilt in place), lanes failing and reset.
 TEST(NoAllocation, BatchSteppingDoesNotAllocate) {
@@ -112,6 +139,26 @@ TEST(NoAllocation, BatchNoiseAndInnerLoopsDoNotAllocate) {
     batch.step(2, rates);
     batch.set_generalized_forces(u.data());
     batch.set_seed(k % 50, static_cast<std::uint64_t>(k));
+  }
+  EXPECT_EQ(g_allocations.load(), before);
+}
+
+// The batch in a wind field (a scalar pass per lane, turbulence per lane), new episodes' seeds.
+TEST(NoAllocation, BatchWindFieldDoesNotAllocate) {
+  const auto model = test::load_model("qdrone2");
+  SimConfig windy;
+  windy.environment.wind_W_m_s << 2.0, 1.0, 0.0;
+  windy.wind.shear.enabled = true;
+  windy.wind.turbulence = TurbulenceSettings::of(TurbulenceSeverity::kLight);
+  BatchSimulator<double> batch(model, windy, 20, 2);
+  for (int l = 0; l < 20; ++l)
+    batch.reset(l, Simulator::hover_state(Vec3(0, 0, 1)), model->hover_speeds_rad_s());
+  const long before = g_allocations.load();
+  for (int k = 0; k < 30; ++k) {
+    batch.step(5);
+    batch.set_seed(k % 20, static_cast<std::uint64_t>(k));
+    volatile double sink = batch.air_velocity(k % 20).x();
+    (void)sink;
   }
   EXPECT_EQ(g_allocations.load(), before);
 }

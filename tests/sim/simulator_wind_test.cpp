@@ -9,7 +9,6 @@
 #include <memory>
 #include <string>
 
-#include "dronetwin/batch/batch_simulator.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/sim/simulator.hpp"
 #include "test_support.hpp"
@@ -182,18 +181,6 @@ TEST(SimulatorWind, BadSettingsAreRefusedNamingTheField) {
   bad.turbulence = {true, std::nan("")};
   EXPECT_THROW(sim.set_wind_field(bad), InvalidArgument);
   EXPECT_FALSE(sim.config().wind.varies());
-}
-
-TEST(SimulatorWind, TheBatchedEngineRefusesAFieldItDoesNotFly) {
-  SimConfig c;
-  c.wind.turbulence = TurbulenceSettings::of(TurbulenceSeverity::kLight);
-  try {
-    BatchSimulator<double> batch(test::load_model("qdrone2"), c, 4, 1);
-    ADD_FAILURE() << "no error";
-  } catch (const InvalidArgument& e) {
-    EXPECT_NE(std::string(e.what()).find("wind shear, gusts and turbulence"), std::string::npos)
-        << e.what();
-  }
 }
 
 }  // namespace

@@ -45,6 +45,14 @@
 // The derivative noise (the Simulator's second OU process, on the measured state derivative) is
 // advanced in the steps where an inner loop reads the derivative (draws 16-28 of the step).
 //
+// Wind: wind_data() holds each lane's wind, constant over a step. With a wind field
+// (config.wind: shear, gusts, turbulence; dynamics/wind_field.hpp) it holds each lane's mean wind
+// and every step flies in the Simulator's wind for the lane's height and time, computed lane by
+// lane in double; each lane's turbulence has its own stream, seeded from (seed, lane) as
+// turbulence_stream_seed(counter_stream_key(seed, lane)), restarted (developed) by reset() and
+// set_seed(). A lane then equals a Simulator whose seed is counter_stream_key(seed, lane)
+// (noise off). The field costs a per-lane scalar pass per step (docs/performance.md).
+//
 // Trap: one BatchSimulator is stepped by one thread at a time (it says so, SimulationError, if
 // two try); its own pool does the parallel work.
 
@@ -101,6 +109,14 @@ class AlignedArray {
  private:
   T* data_ = nullptr;
   std::size_t size_ = 0;
+};
+
+/// A lane's wind for one step (BatchSimulator's wind field): the sheared mean, the air velocity
+/// (mean, gusts, turbulence) and the Dryden scales at the lane's height.
+struct LaneWind {
+  Vec3 mean_W_m_s = Vec3::Zero();
+  Vec3 wind_W_m_s = Vec3::Zero();
+  DrydenScales scales;
 };
 
 /// An inner-loop controller the batch runs inside its step, once per physics step and pack, on
@@ -195,7 +211,12 @@ class BatchSimulator {
   /// model's allocation (model/allocation.hpp).
   void set_generalized_force(int lane, const GeneralizedForce& u,
                              AllocationMethod method = AllocationMethod::kExact);
+  /// The lane's mean wind (wind_data(); at the shear's reference height when config().wind
+  /// shears it).
   void set_wind(int lane, const Vec3& wind_W_m_s);
+  /// The air velocity at lane `lane`'s vehicle now (mean wind sheared, gusts, turbulence), held
+  /// over its next step; its mean wind when config().wind does not vary.
+  Vec3 air_velocity(int lane) const;
 
   /// Per-lane model parameters (names of model/model_parameters.hpp): a per-rotor coefficient is
   /// scaled in every rotor of the lane so that their mean becomes `value`, as `dronetwin fit`
@@ -238,6 +259,10 @@ class BatchSimulator {
   DRONETWIN_FLATTEN void step_pack(int pack, std::int64_t n, BatchInnerLoop<T>* inner_loop);
   int run_steps(std::int64_t n, BatchInnerLoop<T>* inner_loop);
   void check_inputs(int pack);
+  static std::uint64_t turbulence_seed(std::uint64_t seed, std::size_t lane);
+  void restart_turbulence(std::size_t lane);
+  LaneWind lane_wind(std::size_t lane, const Vec3& mean_W_m_s, double height_m,
+                     std::int64_t step) const;
 
   std::shared_ptr<const VehicleModel> model_;
   SimConfig config_;
@@ -256,6 +281,9 @@ class BatchSimulator {
   std::vector<std::uint8_t> saturated_;
   std::vector<std::int64_t> step_count_;
   std::vector<ContactState> contact_;
+  // Wind field (config().wind varies): each lane's Dryden filters and their stream.
+  std::vector<DrydenState> turbulence_;
+  std::vector<Random> turbulence_rng_;
 
   // Parameters: one value per parameter and lane; a pack whose lanes changed is rebuilt before
   // the next step.

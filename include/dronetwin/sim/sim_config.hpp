@@ -9,6 +9,7 @@
 #include "dronetwin/dynamics/ground.hpp"
 #include "dronetwin/dynamics/wind_field.hpp"
 #include "dronetwin/dynamics/wrench.hpp"
+#include "dronetwin/faults/rotor_fault.hpp"
 #include "dronetwin/integrators/integrator.hpp"
 #include "dronetwin/noise/ornstein_uhlenbeck.hpp"
 
@@ -37,6 +38,8 @@ struct SimConfig {
   Environment environment{};
   /// Shear, gusts and turbulence around environment.wind_W_m_s (default: none, constant wind).
   WindSettings wind{};
+  /// Rotor faults (lost effectiveness, a stop, a stuck motor) from given times on (default none).
+  FaultSettings faults{};
   NoiseConfig noise{};
   GroundConfig ground{};
   DivergenceLimits divergence{};

@@ -33,6 +33,10 @@
 // step advances the turbulence with the height and airspeed of its start, then the wind is
 // recomputed for the next step.
 //
+// Faults (faults/rotor_fault.hpp): from its start a lost-effectiveness fault swaps in a force
+// kernel with that rotor's thrust scaled (prebuilt, so the step does not allocate), a stopped
+// rotor's reference becomes zero and a stuck rotor keeps its speed. The controller is not told.
+//
 // Scene: with set_scene() a step whose motion brings the model's collision shape into a gate's
 // frame or an obstacle (world/collision.hpp) is refused like a diverged one, with status
 // kCollided and a failure_message() naming the object.
@@ -41,6 +45,7 @@
 // speeds, contact, noise and time stay as they were); the simulator enters the failed state
 // (status() and failure_message() say why) and step() throws until reset().
 
+#include <array>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -138,6 +143,9 @@ struct SimData {
   DrydenState turbulence;
   DrydenScales turbulence_scales;
   Random turbulence_rng;
+  /// Bit j set once rotor fault j of SimConfig::faults has begun; the speed a stuck rotor keeps.
+  std::uint32_t active_faults = 0;
+  std::array<double, kMaxRotors> stuck_speed_rad_s{};
   ContactState contact;
   StepStatus status = StepStatus::kOk;
   StepFailure failure;
@@ -149,6 +157,9 @@ struct StepResult {
   std::int64_t steps_taken = 0;
   bool ok() const { return status == StepStatus::kOk; }
 };
+
+/// The force kernels of lost-effectiveness faults (defined in simulator.cpp).
+struct FaultedForces;
 
 class Simulator {
  public:
@@ -222,6 +233,9 @@ class Simulator {
   /// Shear, gusts and turbulence (validated as in validate(SimConfig)), from the next step on.
   /// The turbulence filters go on from their current state, which reset() draws developed.
   void set_wind_field(const WindSettings& wind);
+  /// Rotor faults (validated as in the constructor), acting from the next step on: those whose
+  /// start has passed begin at once (a stuck rotor keeps its speed then).
+  void set_faults(const FaultSettings& faults);
   /// The air velocity at the vehicle now (SimData::wind_W_m_s), world frame, m/s.
   const Vec3& wind_W_m_s() const { return data_.wind_W_m_s; }
   void set_disturbances(const DisturbanceSwitches& switches);
@@ -247,12 +261,21 @@ class Simulator {
   StepResult step_unchecked();
   void update_measured_state();
   void update_wind();
+  void build_fault_forces();
+  /// How many lost-effectiveness faults act at `time_s`; the force kernel and model for them (the
+  /// nominal ones without).
+  std::size_t effectiveness_stage(double time_s) const;
+  const ForceKernel<double>& active_kernel(double time_s) const;
+  const VehicleModelTpl<double>& active_model(double time_s) const;
 
   std::shared_ptr<const VehicleModel> model_;
   SimConfig config_;
   MotorDiscretization motors_;
   /// The force kernel for the model and config().disturbances (shared by copies).
   std::shared_ptr<const ForceKernel<double>> kernel_;
+  /// With lost-effectiveness faults: the kernels and models as they take effect (shared by
+  /// copies; built with kernel_).
+  std::shared_ptr<const FaultedForces> faulted_;
   /// Scratch of the current step (the rotor-speed dependent terms); not state.
   HeldRotorTerms<double> held_;
   std::shared_ptr<const Track> scene_;
