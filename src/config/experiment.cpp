@@ -289,9 +289,11 @@ FaultSettings read_faults(const Reader& rd, const YAML::Node& node, const std::s
     r.kind = static_cast<RotorFaultKind>(
         rd.choice(m.required("type"), m.path("type"), kFaultTypes, "fault type"));
     r.rotor = rd.integer<int>(m.required("rotor"), m.path("rotor"), "a rotor index >= 0");
-    if (r.rotor < 0)
+    // The model's rotor count is checked against it later (check_against_model); here the
+    // bound every model has, so that validate(SimConfig) accepts what the parser accepts.
+    if (r.rotor < 0 || r.rotor >= kMaxRotors)
       rd.fail(m.get("rotor"), m.path("rotor"),
-              detail::concat("expected a rotor index >= 0, got ", r.rotor));
+              detail::concat("expected a rotor index 0 .. ", kMaxRotors - 1, ", got ", r.rotor));
     r.start_s = rd.number(m.required("start_s"), m.path("start_s"));
     if (r.kind == RotorFaultKind::kEffectiveness) {
       const YAML::Node e = m.required("effectiveness");
