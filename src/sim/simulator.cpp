@@ -283,9 +283,12 @@ void Simulator::build_fault_forces() {
     faulted_.reset();
     return;
   }
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return f.rotor[static_cast<std::size_t>(a)].start_s <
-           f.rotor[static_cast<std::size_t>(b)].start_s;
+  // By start, ties in file order. std::sort, not stable_sort: the latter takes a temporary
+  // buffer with a nothrow operator new (which the allocation-counting tests do not replace).
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    const double sa = f.rotor[static_cast<std::size_t>(a)].start_s;
+    const double sb = f.rotor[static_cast<std::size_t>(b)].start_s;
+    return sa < sb || (sa == sb && a < b);
   });
   auto forces = std::make_shared<FaultedForces>();
   forces->order = order;
