@@ -1,5 +1,6 @@
 // Cost of one physics step of the full QDrone2 model: RK4, every disturbance term, motor lag,
-// ground check; single thread. *WindField: shear, a gust and moderate Dryden turbulence. Run:
+// ground check; single thread. *WindField: shear, a gust and moderate Dryden turbulence.
+// *Battery: the equivalent-circuit pack (at hover: the speed cap is checked, never binds). Run:
 // build/bench/step_bench (see docs/performance.md).
 
 #include <benchmark/benchmark.h>
@@ -19,7 +20,7 @@ std::shared_ptr<const VehicleModel> model(const char* name) {
 }
 
 void run(benchmark::State& state, const char* name, Integrator integrator, bool noise,
-         bool wind_field = false) {
+         bool wind_field = false, bool battery = false) {
   const auto m = model(name);
   SimConfig cfg;
   cfg.integrator = integrator;
@@ -31,6 +32,7 @@ void run(benchmark::State& state, const char* name, Integrator integrator, bool 
     cfg.wind.num_gusts = 1;
     cfg.wind.turbulence = TurbulenceSettings::of(TurbulenceSeverity::kModerate);
   }
+  cfg.battery.enabled = battery;
   Simulator sim(m, cfg);
   RotorVector ref = m->hover_speeds_rad_s();
   ref[0] *= 1.001;  // a little asymmetry so the body moves and rotates
@@ -59,11 +61,15 @@ void BM_StepQDrone2Euler(benchmark::State& s) { run(s, "qdrone2", Integrator::kE
 void BM_StepQDrone2Rk4WindField(benchmark::State& s) {
   run(s, "qdrone2", Integrator::kRk4, false, true);
 }
+void BM_StepQDrone2Rk4Battery(benchmark::State& s) {
+  run(s, "qdrone2", Integrator::kRk4, false, false, true);
+}
 void BM_StepHexarotorRk4(benchmark::State& s) { run(s, "hexarotor", Integrator::kRk4, false); }
 
 BENCHMARK(BM_StepQDrone2Rk4);
 BENCHMARK(BM_StepQDrone2Rk4Noise);
 BENCHMARK(BM_StepQDrone2Rk4WindField);
+BENCHMARK(BM_StepQDrone2Rk4Battery);
 BENCHMARK(BM_StepQDrone2Euler);
 BENCHMARK(BM_StepHexarotorRk4);
 

@@ -85,6 +85,12 @@ void bind_io(py::module_& m) {
           },
           "Rotor faults (a list of RotorFault; assign a new list to change them).")
       .def_property(
+          "battery",
+          py::cpp_function([](Experiment& e) -> BatterySettings& { return e.sim.battery; },
+                           py::return_value_policy::reference_internal),
+          [](Experiment& e, const BatterySettings& v) { e.sim.battery = v; },
+          "The battery (BatterySettings, a view: edit it in place).")
+      .def_property(
           "wind",
           py::cpp_function([](Experiment& e) -> WindSettings& { return e.sim.wind; },
                            py::return_value_policy::reference_internal),

@@ -197,6 +197,8 @@ void bind_sim(py::module_& m) {
           "faults", [](const SimConfig& c) { return fault_list_of(c.faults); },
           [](SimConfig& c, const std::vector<RotorFault>& f) { c.faults = fault_settings_of(f); },
           "Rotor faults (a list of RotorFault; assign a new list to change them).")
+      .def_readwrite("battery", &SimConfig::battery,
+                     "The battery (BatterySettings; off by default: an ideal supply).")
       .def_readwrite("wind", &SimConfig::wind,
                      "Shear, gusts and turbulence around environment.wind_W_m_s (WindSettings).")
       .def_readwrite("noise", &SimConfig::noise)
@@ -382,6 +384,12 @@ void bind_sim(py::module_& m) {
           py::arg("faults"),
           "Rotor faults (a list of RotorFault) from the next step on; those whose start has "
           "passed begin at once.")
+      .def("set_battery", &Simulator::set_battery, py::arg("battery"),
+           "The battery (BatterySettings) from the next step on; its state restarts at the "
+           "pack's initial charge.")
+      .def_property_readonly(
+          "battery", [](const Simulator& s) { return s.battery(); },
+          "The pack now (BatteryState, a copy): soc, voltage_V, current_A, depleted, ...")
       .def("set_wind_field", &Simulator::set_wind_field, py::arg("wind"),
            "Shear, gusts and turbulence (WindSettings) from the next step on.")
       .def_property_readonly(

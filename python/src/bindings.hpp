@@ -35,6 +35,7 @@ void bind_sensors(py::module_& m);
 void bind_noise(py::module_& m);
 void bind_wind(py::module_& m);
 void bind_faults(py::module_& m);
+void bind_battery(py::module_& m);
 
 /// 'light', 'moderate' or 'severe' (ValueError naming the choices otherwise).
 TurbulenceSeverity severity_from_name(const std::string& name);

@@ -205,6 +205,11 @@ class RunObserver final : public LoopObserver {
     row_[k++] = sim.contact().crashed ? 1.0 : 0.0;
     if (e_.sim.wind.varies())
       for (int i = 0; i < 3; ++i) row_[k++] = sim.wind_W_m_s()[i];
+    if (e_.sim.battery.enabled) {
+      row_[k++] = sim.battery().soc;
+      row_[k++] = sim.battery().voltage_V;
+      row_[k++] = sim.battery().current_A;
+    }
     if (e_.log.wrench_breakdown) {
       const WrenchBreakdown b = sim.wrench_breakdown();
       for (const Wrench<double>& w : b.terms) {
@@ -505,7 +510,8 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
       controller_input != nullptr ? controller->diagnostic_names() : std::vector<std::string>{};
   LogLayout layout{model->num_rotors(),         e.log.measured,   e.log.wrench_breakdown,
                    controller_input != nullptr, diagnostic_names, e.sensors,
-                   e.estimation.has_value(),    e.depth_cameras,  e.sim.wind.varies()};
+                   e.estimation.has_value(),    e.depth_cameras,  e.sim.wind.varies(),
+                   e.sim.battery.enabled};
   std::optional<RunSensing> sensing;
   if (!e.sensors.empty()) {
     sensing.emplace(e, sim, *sensors);

@@ -124,6 +124,9 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
   require(!config_.faults.any(),
           "BatchSimulator: rotor faults (the config's `faults:`) are flown by Simulator only; "
           "remove them, or vary a lane's thrust with set_parameter()");
+  require(!config_.battery.enabled,
+          "BatchSimulator: the battery (the config's `battery:`) is flown by Simulator only; "
+          "set battery.enabled = false");
   stride_ = batch_stride<T>(num_vehicles, "BatchSimulator");
   terms_ = ForceTerms::of(config_.disturbances);
   num_vehicles_ = num_vehicles;

@@ -121,6 +121,10 @@ EnvFile parse_env_config(const std::string& yaml_text, const std::string& source
     rd.fail(top.get("faults"), "faults",
             "rotor faults are flown by the Simulator (experiments), not by the batched engine the "
             "environments run on; randomise the thrust with randomization.thrust_scale");
+  if (c.sim.battery.enabled)
+    rd.fail(top.get("battery"), "battery",
+            "the battery is flown by the Simulator (experiments), not yet by the batched engine "
+            "the environments run on");
   c.seed = c.sim.seed;
   const auto name = [&](std::string_view key) { return rd.string(top.get(key), top.path(key)); };
   const auto checked = [&](std::string_view key, auto&& convert) {

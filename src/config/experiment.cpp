@@ -48,7 +48,7 @@ const Names kTopLevelKeys = {
     "name",       "description",    "model",         "seed",     "duration_s",   "physics_dt_s",
     "integrator", "motor_dynamics", "noise",         "wind_m_s", "gravity_m_s2", "disturbances",
     "ground",     "divergence",     "initial_state", "log",      "metrics",      "input",
-    "sensors",    "estimation",     "scene",         "wind",     "faults"};
+    "sensors",    "estimation",     "scene",         "wind",     "faults",       "battery"};
 const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
 const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
 const Names kBlockKeys = {"a", "b"};
@@ -61,6 +61,17 @@ const Names kTurbulenceSeverities = {"none", "light", "moderate", "severe"};
 const Names kGustKeys = {"start_s", "duration_s", "amplitude_m_s"};
 const Names kFaultKeys = {"type", "rotor", "start_s", "effectiveness"};
 const Names kFaultTypes(kRotorFaultNames.begin(), kRotorFaultNames.end());
+const Names kBatteryKeys = {"enabled",
+                            "cells_in_series",
+                            "capacity_Ah",
+                            "ocv_cell_V",
+                            "series_resistance_ohm",
+                            "rc_resistance_ohm",
+                            "rc_capacitance_F",
+                            "efficiency",
+                            "motor_speed_constant_rad_per_V_s",
+                            "cutoff_voltage_V",
+                            "initial_soc"};
 const Names kDivergenceKeys = {"max_position_m", "max_speed_m_s", "max_angular_speed_rad_s"};
 const Names kInitialStateKeys = {"position_m",  "velocity_m_s",           "quaternion_wxyz",
                                  "euler_rad",   "angular_velocity_rad_s", "rotor_speeds_rad_s",
@@ -309,6 +320,68 @@ FaultSettings read_faults(const Reader& rd, const YAML::Node& node, const std::s
   }
   f.num_rotor_faults = static_cast<int>(node.size());
   return f;
+}
+
+/// `battery:` (docs/battery.md): true, false or a map of pack settings over the defaults.
+BatterySettings read_battery(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  BatterySettings b;
+  if (node.IsScalar()) {
+    b.enabled = rd.boolean(node, path);
+    return b;
+  }
+  const Map m = rd.map(node, path, kBatteryKeys, "true, false or a map of battery settings");
+  b.enabled = m.has("enabled") ? rd.boolean(m.get("enabled"), m.path("enabled")) : true;
+  BatteryPack& p = b.pack;
+  const auto fraction = [&](std::string_view key, double& out, bool zero_allowed) {
+    if (!m.has(key)) return;
+    const YAML::Node n = m.get(key);
+    out = rd.number(n, m.path(key));
+    if (out > 1.0 || out < 0.0 || (!zero_allowed && out == 0.0))
+      rd.fail(n, m.path(key),
+              detail::concat("expected a fraction in ", zero_allowed ? "[0, 1]" : "(0, 1]",
+                             ", got ", n.Scalar()));
+  };
+  const auto non_negative = [&](std::string_view key, double& out) {
+    if (!m.has(key)) return;
+    const YAML::Node n = m.get(key);
+    out = rd.number(n, m.path(key));
+    if (out < 0.0) rd.fail(n, m.path(key), "expected a number >= 0, got " + n.Scalar());
+  };
+  if (m.has("cells_in_series")) {
+    p.cells_in_series = rd.integer<int>(m.get("cells_in_series"), m.path("cells_in_series"),
+                                        "a cell count 1 .. 32");
+    if (p.cells_in_series < 1 || p.cells_in_series > 32)
+      rd.fail(m.get("cells_in_series"), m.path("cells_in_series"),
+              detail::concat("expected a cell count 1 .. 32, got ", p.cells_in_series));
+  }
+  if (m.has("capacity_Ah"))
+    p.capacity_Ah = rd.positive(m.get("capacity_Ah"), m.path("capacity_Ah"));
+  if (m.has("ocv_cell_V")) {
+    const YAML::Node n = m.get("ocv_cell_V");
+    const auto v = rd.fixed<kOcvPoints>(n, m.path("ocv_cell_V"),
+                                        "11 cell voltages at SoC 0, 0.1, ..., 1 in V");
+    for (int k = 0; k < kOcvPoints; ++k) {
+      if (!(v[k] > 0.0) || (k > 0 && v[k] < v[k - 1])) {
+        char text[160];
+        std::snprintf(text, sizeof text,
+                      "[%d]: expected a voltage > 0 not below the one before it, got %g", k, v[k]);
+        rd.fail(n, m.path("ocv_cell_V"), text);
+      }
+      p.ocv_cell_V[static_cast<std::size_t>(k)] = v[k];
+    }
+  }
+  if (m.has("series_resistance_ohm"))
+    p.series_resistance_ohm =
+        rd.positive(m.get("series_resistance_ohm"), m.path("series_resistance_ohm"));
+  non_negative("rc_resistance_ohm", p.rc_resistance_ohm);
+  non_negative("rc_capacitance_F", p.rc_capacitance_F);
+  fraction("efficiency", p.efficiency, false);
+  if (m.has("motor_speed_constant_rad_per_V_s"))
+    p.motor_speed_constant_rad_per_V_s = rd.positive(m.get("motor_speed_constant_rad_per_V_s"),
+                                                     m.path("motor_speed_constant_rad_per_V_s"));
+  non_negative("cutoff_voltage_V", p.cutoff_voltage_V);
+  fraction("initial_soc", p.initial_soc, false);
+  return b;
 }
 
 DivergenceLimits read_divergence(const Reader& rd, const YAML::Node& node,
@@ -1084,6 +1157,7 @@ void read_sim_settings(const Reader& rd, const Map& top, SimConfig& sim) {
   if (top.has("divergence"))
     sim.divergence = read_divergence(rd, top.get("divergence"), "divergence");
   if (top.has("faults")) sim.faults = read_faults(rd, top.get("faults"), "faults");
+  if (top.has("battery")) sim.battery = read_battery(rd, top.get("battery"), "battery");
 }
 
 std::shared_ptr<const Reference> read_reference_spec(const Reader& rd, const YAML::Node& node,

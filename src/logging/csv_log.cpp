@@ -88,6 +88,13 @@ std::vector<LogColumn> log_columns(const LogLayout& layout) {
                                "held over the step from t, world ") +
                        axis + " axis"});
   }
+  if (layout.battery) {
+    c.push_back({"battery_soc", "1", "battery state of charge (1 full, 0 empty) at t"});
+    c.push_back({"battery_voltage", "V",
+                 "battery terminal voltage at t under the current of the step that reached t "
+                 "(0 once cut off); it caps the rotor speeds at K_V V"});
+    c.push_back({"battery_current", "A", "battery current of the step that reached t"});
+  }
   if (layout.wrench_breakdown) {
     for (int k = 0; k < kNumTerms; ++k) {
       const std::string term(term_name(static_cast<Term>(k)));

@@ -66,6 +66,42 @@ void validate_faults(const FaultSettings& f) {
   }
 }
 
+void validate_battery(const BatterySettings& settings) {
+  const BatteryPack& b = settings.pack;
+  const auto positive = [](double v, const char* field, const char* unit) {
+    require(std::isfinite(v) && v > 0.0, "simulation config: battery.", field, ": expected > 0 ",
+            unit, ", got ", v);
+  };
+  require(b.cells_in_series >= 1 && b.cells_in_series <= 32,
+          "simulation config: battery.cells_in_series: expected 1 .. 32, got ", b.cells_in_series);
+  positive(b.capacity_Ah, "capacity_Ah", "A h");
+  positive(b.motor_speed_constant_rad_per_V_s, "motor_speed_constant_rad_per_V_s", "rad/(V s)");
+  for (int k = 0; k < kOcvPoints; ++k) {
+    const double v = b.ocv_cell_V[static_cast<std::size_t>(k)];
+    require(std::isfinite(v) && v > 0.0, "simulation config: battery.ocv_cell_V[", k,
+            "]: expected a voltage > 0, got ", v);
+    require(k == 0 || v >= b.ocv_cell_V[static_cast<std::size_t>(k - 1)],
+            "simulation config: battery.ocv_cell_V[", k,
+            "]: expected the voltage not to fall as the charge rises (", v, " after ",
+            b.ocv_cell_V[static_cast<std::size_t>(k - 1)], ")");
+  }
+  const auto non_negative = [](double v, const char* field) {
+    require(std::isfinite(v) && v >= 0.0, "simulation config: battery.", field,
+            ": expected >= 0, got ", v);
+  };
+  // R0 > 0 bounds the current at E / (2 R0) whatever the power asked.
+  positive(b.series_resistance_ohm, "series_resistance_ohm", "ohm");
+  non_negative(b.rc_resistance_ohm, "rc_resistance_ohm");
+  non_negative(b.rc_capacitance_F, "rc_capacitance_F");
+  non_negative(b.cutoff_voltage_V, "cutoff_voltage_V");
+  require(std::isfinite(b.efficiency) && b.efficiency > 0.0 && b.efficiency <= 1.0,
+          "simulation config: battery.efficiency: expected a fraction in (0, 1], got ",
+          b.efficiency);
+  require(std::isfinite(b.initial_soc) && b.initial_soc > 0.0 && b.initial_soc <= 1.0,
+          "simulation config: battery.initial_soc: expected a fraction in (0, 1], got ",
+          b.initial_soc);
+}
+
 }  // namespace
 
 /// Lost-effectiveness faults in the order they begin (ties in file order): models[k] and
@@ -83,6 +119,7 @@ void validate(const SimConfig& c) {
   require_finite_vec(c.environment.wind_W_m_s, "environment.wind");
   validate_wind(c.wind);
   validate_faults(c.faults);
+  validate_battery(c.battery);
   const OuParameters& p = c.noise.parameters;
   const double drift_scale = p.drift == OuDrift::kPerSample ? 1.0 : c.dt_s;
   for (int k = 0; k < 4; ++k) {
@@ -173,6 +210,7 @@ void Simulator::reset(const StateVector& state, const RotorVector& rotor_speeds_
   data_.turbulence = dryden_start(data_.turbulence_rng);
   data_.active_faults = 0;
   data_.stuck_speed_rad_s = {};
+  data_.battery = battery_start(config_.battery.pack);
   data_.contact = ContactState{};
   if (config_.ground.enabled && data_.state[state_index::kPosition + 2] <= 0.0) {
     data_.contact.in_contact = true;
@@ -271,6 +309,13 @@ void Simulator::set_faults(const FaultSettings& faults) {
   config_.faults = faults;
   data_.active_faults = 0;
   build_fault_forces();
+}
+
+void Simulator::set_battery(const BatterySettings& battery) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_battery");
+  validate_battery(battery);
+  config_.battery = battery;
+  data_.battery = battery_start(battery.pack);
 }
 
 void Simulator::build_fault_forces() {
@@ -451,6 +496,18 @@ StepResult Simulator::step_unchecked() {
         data_.stuck_speed_rad_s[static_cast<std::size_t>(f.rotor)] =
             data_.rotor_speed_rad_s[f.rotor];
     }
+  }
+  if (config_.battery.enabled) {
+    // The step's current comes from the speeds it flew with (held over it); the pack it leaves
+    // caps the speeds the motors head for next.
+    const BatteryPack& pack = config_.battery.pack;
+    const double power_W =
+        rotor_shaft_power_W(active_model(data_.time_s), data_.rotor_speed_rad_s) / pack.efficiency;
+    advance_battery(pack, config_.dt_s, battery_current_A(pack, data_.battery, power_W),
+                    data_.battery);
+    const double cap_rad_s =
+        battery_speed_cap_rad_s(active_model(data_.time_s), pack, data_.battery, reference);
+    for (int i = 0; i < m.num_rotors(); ++i) reference[i] = std::min(reference[i], cap_rad_s);
   }
   if (config_.motor_dynamics) {
     advance_motors(m, motors_, reference, data_.rotor_speed_rad_s);

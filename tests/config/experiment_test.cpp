@@ -647,6 +647,12 @@ const std::vector<BadCase> kBadCases = {
       "line 6"}},
     {"fault_rotor_out_of_range.yaml",
      {"faults[0].rotor: expected 0 .. 3 (rotors of qdrone2), got 4"}},
+    {"battery_efficiency_above_one.yaml",
+     {"battery.efficiency: expected a fraction in (0, 1], got 1.2", "line 6"}},
+    {"battery_ocv_falling.yaml",
+     {"battery.ocv_cell_V: [3]: expected a voltage > 0 not below the one before it, got 3.6",
+      "line 6"}},
+    {"battery_key_typo.yaml", {"capacity_mAh", "did you mean 'capacity_Ah'?"}},
     {"fault_type_typo.yaml",
      {"faults[0].type: unknown fault type 'rotor_stopp'", "did you mean 'rotor_stop'?", "line 6"}},
     {"first_segment_not_at_zero.yaml", {"input.segments[0].start_s: expected 0", "got 0.5"}},
@@ -733,7 +739,7 @@ TEST(BadExperimentCorpus, CorpusIsFullyCovered) {
   std::set<std::string> covered;
   for (const BadCase& c : kBadCases) covered.insert(c.file);
   EXPECT_EQ(files, covered);
-  EXPECT_EQ(files.size(), 46u);
+  EXPECT_EQ(files.size(), 49u);
   EXPECT_GE(files.size(), 10u);
 }
 

@@ -65,8 +65,9 @@ TEST(NoAllocation, SteppingDoesNotAllocate) {
 
 // A wind field (shear, a gust, turbulence) and rotor faults that begin mid-run (a lost
 // effectiveness swaps in a prebuilt kernel, a stuck motor records its speed).
-TEST(NoAllocation, WindFieldAndFaultsDoNotAllocate) {
+TEST(NoAllocation, WindFieldFaultsAndBatteryDoNotAllocate) {
   SimConfig cfg;
+  cfg.battery.enabled = true;
   cfg.environment.wind_W_m_s << 3.0, 0.0, 0.0;
   cfg.wind.shear.enabled = true;
   cfg.wind.turbulence = TurbulenceSettings::of(TurbulenceSeverity::kModerate);
@@ -80,14 +81,19 @@ TEST(NoAllocation, WindFieldAndFaultsDoNotAllocate) {
   sim.reset(Simulator::hover_state(Vec3(0, 0, 1.0)), model->hover_speeds_rad_s());
   sim.set_rotor_speed_reference(model->hover_speeds_rad_s());
   const long before = g_allocations.load();
+  const RotorVector full_throttle = RotorVector::Constant(model->num_rotors(), 3400.0);
   for (int k = 0; k < 1500; ++k) {
+    // The last 300 steps at full throttle, where the pack caps the rotor speed.
+    if (k == 1200) sim.set_rotor_speed_reference(full_throttle);
     ASSERT_TRUE(sim.step().ok()) << sim.failure_message();
     volatile double sink = sim.state_derivative()[5] + sim.wind_W_m_s().x() +
-                           sim.wrench_breakdown()[Term::kThrust].force_B.z();
+                           sim.wrench_breakdown()[Term::kThrust].force_B.z() +
+                           sim.battery().voltage_V;
     (void)sink;
   }
   EXPECT_EQ(g_allocations.load() - before, 0);
   EXPECT_EQ(sim.data().active_faults, 3u);
+  EXPECT_LT(sim.rotor_speeds_rad_s()[2], 3000.0);  // capped by the sagging pack
 }
 
 // The batch (issue: no allocation per step): stepping with two threads, parameters changed

@@ -12,6 +12,7 @@
 #include "dronetwin/faults/rotor_fault.hpp"
 #include "dronetwin/integrators/integrator.hpp"
 #include "dronetwin/noise/ornstein_uhlenbeck.hpp"
+#include "dronetwin/power/battery.hpp"
 
 namespace dronetwin {
 
@@ -40,6 +41,8 @@ struct SimConfig {
   WindSettings wind{};
   /// Rotor faults (lost effectiveness, a stop, a stuck motor) from given times on (default none).
   FaultSettings faults{};
+  /// An equivalent-circuit pack that drains and caps the rotor speed (default off: ideal supply).
+  BatterySettings battery{};
   NoiseConfig noise{};
   GroundConfig ground{};
   DivergenceLimits divergence{};

@@ -37,6 +37,10 @@
 // kernel with that rotor's thrust scaled (prebuilt, so the step does not allocate), a stopped
 // rotor's reference becomes zero and a stuck rotor keeps its speed. The controller is not told.
 //
+// Battery (power/battery.hpp): an accepted step draws the current of its rotor speeds' shaft
+// power from the pack; the pack it leaves caps the rotor speed references the motors head for
+// next at w = K_V V(w), and a cut-off pack stops the motors.
+//
 // Scene: with set_scene() a step whose motion brings the model's collision shape into a gate's
 // frame or an obstacle (world/collision.hpp) is refused like a diverged one, with status
 // kCollided and a failure_message() naming the object.
@@ -146,6 +150,9 @@ struct SimData {
   /// Bit j set once rotor fault j of SimConfig::faults has begun; the speed a stuck rotor keeps.
   std::uint32_t active_faults = 0;
   std::array<double, kMaxRotors> stuck_speed_rad_s{};
+  /// The pack (SimConfig::battery): charge, RC voltage, the current of the last step and the
+  /// terminal voltage under it, which caps the rotor speeds of the next.
+  BatteryState battery;
   ContactState contact;
   StepStatus status = StepStatus::kOk;
   StepFailure failure;
@@ -236,6 +243,10 @@ class Simulator {
   /// Rotor faults (validated as in the constructor), acting from the next step on: those whose
   /// start has passed begin at once (a stuck rotor keeps its speed then).
   void set_faults(const FaultSettings& faults);
+  /// The battery (validated as in the constructor), from the next step on; the pack's state
+  /// restarts at its initial charge.
+  void set_battery(const BatterySettings& battery);
+  const BatteryState& battery() const { return data_.battery; }
   /// The air velocity at the vehicle now (SimData::wind_W_m_s), world frame, m/s.
   const Vec3& wind_W_m_s() const { return data_.wind_W_m_s; }
   void set_disturbances(const DisturbanceSwitches& switches);

@@ -1,0 +1,63 @@
+"""The battery from Python (BatteryPack, BatterySettings, SimConfig.battery, Simulator.battery,
+Experiment.battery): a hover drains the pack at the current its power needs, the state of charge
+falls by the charge drawn, experiments log the pack, the batch refuses it, bad settings are named."""
+
+import numpy as np
+import pytest
+
+import dronetwin as dt
+from conftest import source_path
+
+
+def hovering(model, cfg):
+    sim = dt.Simulator(model, cfg)
+    sim.reset(dt.Simulator.hover_state([0.0, 0.0, 2.0]), model.hover_speeds_rad_s())
+    sim.set_rotor_speed_reference(model.hover_speeds_rad_s())
+    return sim
+
+
+def test_a_hover_drains_the_pack_by_the_charge_it_draws(qdrone2):
+    cfg = dt.SimConfig()
+    cfg.battery = dt.BatterySettings()
+    pack = cfg.battery.pack
+    assert cfg.battery.enabled and pack.cells_in_series == 6 and pack.capacity_Ah == 2.2
+    sim = hovering(qdrone2, cfg)
+    currents = []
+    for _ in range(1000):
+        sim.step()
+        currents.append(sim.battery.current_A)
+    b = sim.battery
+    # dSoC/dt = -I / (3600 Q): the charge drawn over 1 s of 1 ms steps.
+    assert b.soc == pytest.approx(1.0 - np.sum(currents) * 1e-3 / (3600 * pack.capacity_Ah), rel=1e-12)
+    # A steady hover: the energy delivered over 1 s is the terminal power times 1 s.
+    assert b.energy_drawn_J == pytest.approx(b.voltage_V * b.current_A * 1.0, rel=1e-3)
+    assert 10.0 < b.current_A < 30.0  # ~360 W at ~25 V
+    assert pack.open_circuit_voltage_V(1.0) == pytest.approx(6 * 4.2)
+
+
+def test_an_experiment_logs_its_pack(tmp_path):
+    e = dt.load_experiment(source_path("config", "experiments", "hover_battery_empty.yaml"))
+    assert e.battery.enabled
+    e.battery.pack.initial_soc = 0.02  # empty in ~10 s
+    e.duration_s = 12.0
+    s = dt.run_experiment(e, str(tmp_path / "run"))
+    log = dt.read_log(tmp_path / "run" / "log.csv")
+    assert {"battery_soc", "battery_voltage", "battery_current"} <= set(log)
+    assert log["battery_soc"][0] <= 0.02 and np.all(np.diff(log["battery_soc"]) <= 0)
+    # The pack cut off: no voltage, no current, and the vehicle came down.
+    assert log["battery_voltage"][-1] == 0.0 and log["battery_current"][-1] == 0.0
+    assert log["z"][-1] < 0.1
+    assert s.ok and s.crashed  # a 1.5 m fall onto the ground: the run goes on, marked crashed
+
+
+def test_bad_battery_settings_are_named(qdrone2):
+    pack = dt.BatteryPack()
+    with pytest.raises(ValueError, match=r"ocv_cell_V: expected 11 cell voltages"):
+        pack.ocv_cell_V = [3.7] * 10
+    pack.efficiency = 0.0
+    with pytest.raises(ValueError, match=r"battery.efficiency: expected a fraction in \(0, 1\], got 0"):
+        dt.Simulator(qdrone2, dt.SimConfig()).set_battery(dt.BatterySettings(pack=pack))
+    cfg = dt.SimConfig()
+    cfg.battery = dt.BatterySettings()
+    with pytest.raises(ValueError, match="battery"):
+        dt.BatchSimulator(qdrone2, cfg, 2)
