@@ -20,6 +20,7 @@
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/model/vehicle_model.hpp"
 #include "dronetwin/noise/random.hpp"
+#include "dronetwin/sim/simulator.hpp"
 
 namespace dronetwin::test {
 
@@ -54,6 +55,14 @@ inline std::shared_ptr<const VehicleModel> load_model(const std::string& name) {
 }
 
 /// A state with every component away from zero: position, velocity, attitude and body rate.
+/// A simulator at rest 2 m up with its rotors at hover speed and the hover speeds as reference.
+inline Simulator hovering(std::shared_ptr<const VehicleModel> model, const SimConfig& config) {
+  Simulator sim(model, config);
+  sim.reset(Simulator::hover_state(Vec3(0.0, 0.0, 2.0)), model->hover_speeds_rad_s());
+  sim.set_rotor_speed_reference(model->hover_speeds_rad_s());
+  return sim;
+}
+
 inline StateVector random_state(Random& rng, double z_min = 0.05, double z_max = 3.0) {
   StateVector x;
   x.segment<2>(0) << 4 * rng.uniform() - 2, 4 * rng.uniform() - 2;

@@ -29,3 +29,11 @@ def cli():
     if not path or not os.path.exists(path):
         pytest.skip("DRONETWIN_CLI not set (run through CTest)")
     return path
+
+
+def hovering(model, cfg):
+    """A simulator at rest 2 m up, rotors at hover speed and the hover speeds as reference."""
+    sim = dt.Simulator(model, cfg)
+    sim.reset(dt.Simulator.hover_state([0.0, 0.0, 2.0]), model.hover_speeds_rad_s())
+    sim.set_rotor_speed_reference(model.hover_speeds_rad_s())
+    return sim

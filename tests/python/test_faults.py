@@ -6,14 +6,7 @@ import numpy as np
 import pytest
 
 import dronetwin as dt
-from conftest import source_path
-
-
-def hovering(model, cfg):
-    sim = dt.Simulator(model, cfg)
-    sim.reset(dt.Simulator.hover_state([0.0, 0.0, 2.0]), model.hover_speeds_rad_s())
-    sim.set_rotor_speed_reference(model.hover_speeds_rad_s())
-    return sim
+from conftest import hovering, source_path
 
 
 def test_faults_act_from_their_start(qdrone2):

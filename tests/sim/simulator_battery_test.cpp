@@ -19,18 +19,13 @@
 namespace dronetwin {
 namespace {
 
+using test::hovering;
+
 SimConfig calm_with_battery() {
   SimConfig c;
   c.disturbances = DisturbanceSwitches::none();
   c.battery.enabled = true;
   return c;
-}
-
-Simulator hovering(std::shared_ptr<const VehicleModel> model, const SimConfig& c) {
-  Simulator sim(model, c);
-  sim.reset(Simulator::hover_state(Vec3(0.0, 0.0, 2.0)), model->hover_speeds_rad_s());
-  sim.set_rotor_speed_reference(model->hover_speeds_rad_s());
-  return sim;
 }
 
 /// Shaft power by hand: sum of (T_i / K_tau) w_i with T_i the thrust polynomial (Eq. 2.22-2.24).

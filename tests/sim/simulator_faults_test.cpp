@@ -18,19 +18,14 @@
 namespace dronetwin {
 namespace {
 
+using test::hovering;
+
 using namespace state_index;
 
 SimConfig calm() {
   SimConfig c;
   c.disturbances = DisturbanceSwitches::none();  // thrust and yaw reaction only
   return c;
-}
-
-Simulator hovering(std::shared_ptr<const VehicleModel> model, const SimConfig& c) {
-  Simulator sim(model, c);
-  sim.reset(Simulator::hover_state(Vec3(0.0, 0.0, 2.0)), model->hover_speeds_rad_s());
-  sim.set_rotor_speed_reference(model->hover_speeds_rad_s());
-  return sim;
 }
 
 FaultSettings one(RotorFaultKind kind, int rotor, double start_s, double effectiveness = 1.0) {
