@@ -80,10 +80,12 @@ void validate_battery(const BatterySettings& settings) {
     const double v = b.ocv_cell_V[static_cast<std::size_t>(k)];
     require(std::isfinite(v) && v > 0.0, "simulation config: battery.ocv_cell_V[", k,
             "]: expected a voltage > 0, got ", v);
-    require(k == 0 || v >= b.ocv_cell_V[static_cast<std::size_t>(k - 1)],
-            "simulation config: battery.ocv_cell_V[", k,
-            "]: expected the voltage not to fall as the charge rises (", v, " after ",
-            b.ocv_cell_V[static_cast<std::size_t>(k - 1)], ")");
+    if (k == 0) continue;
+    // require() evaluates every argument, so the previous value is read only from k = 1 on.
+    const double previous = b.ocv_cell_V[static_cast<std::size_t>(k - 1)];
+    require(v >= previous, "simulation config: battery.ocv_cell_V[", k,
+            "]: expected the voltage not to fall as the charge rises (", v, " after ", previous,
+            ")");
   }
   const auto non_negative = [](double v, const char* field) {
     require(std::isfinite(v) && v >= 0.0, "simulation config: battery.", field,
