@@ -1,6 +1,7 @@
 // Cost of one physics step of the full QDrone2 model: RK4, every disturbance term, motor lag,
 // ground check; single thread. *WindField: shear, a gust and moderate Dryden turbulence.
-// *Battery: the equivalent-circuit pack (at hover: the speed cap is checked, never binds). Run:
+// *Battery: the equivalent-circuit pack (at hover: the speed cap is checked, never binds).
+// *Payload: a 0.5 kg slung payload, swinging (integrated with the vehicle, cable settled). Run:
 // build/bench/step_bench (see docs/performance.md).
 
 #include <benchmark/benchmark.h>
@@ -20,7 +21,7 @@ std::shared_ptr<const VehicleModel> model(const char* name) {
 }
 
 void run(benchmark::State& state, const char* name, Integrator integrator, bool noise,
-         bool wind_field = false, bool battery = false) {
+         bool wind_field = false, bool battery = false, bool payload = false) {
   const auto m = model(name);
   SimConfig cfg;
   cfg.integrator = integrator;
@@ -33,6 +34,8 @@ void run(benchmark::State& state, const char* name, Integrator integrator, bool 
     cfg.wind.turbulence = TurbulenceSettings::of(TurbulenceSeverity::kModerate);
   }
   cfg.battery.enabled = battery;
+  cfg.payload.enabled = payload;
+  cfg.payload.initial_swing1_rad = 0.2;
   Simulator sim(m, cfg);
   RotorVector ref = m->hover_speeds_rad_s();
   ref[0] *= 1.001;  // a little asymmetry so the body moves and rotates
@@ -64,12 +67,16 @@ void BM_StepQDrone2Rk4WindField(benchmark::State& s) {
 void BM_StepQDrone2Rk4Battery(benchmark::State& s) {
   run(s, "qdrone2", Integrator::kRk4, false, false, true);
 }
+void BM_StepQDrone2Rk4Payload(benchmark::State& s) {
+  run(s, "qdrone2", Integrator::kRk4, false, false, false, true);
+}
 void BM_StepHexarotorRk4(benchmark::State& s) { run(s, "hexarotor", Integrator::kRk4, false); }
 
 BENCHMARK(BM_StepQDrone2Rk4);
 BENCHMARK(BM_StepQDrone2Rk4Noise);
 BENCHMARK(BM_StepQDrone2Rk4WindField);
 BENCHMARK(BM_StepQDrone2Rk4Battery);
+BENCHMARK(BM_StepQDrone2Rk4Payload);
 BENCHMARK(BM_StepQDrone2Euler);
 BENCHMARK(BM_StepHexarotorRk4);
 

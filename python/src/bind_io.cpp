@@ -91,6 +91,12 @@ void bind_io(py::module_& m) {
           [](Experiment& e, const BatterySettings& v) { e.sim.battery = v; },
           "The battery (BatterySettings, a view: edit it in place).")
       .def_property(
+          "payload",
+          py::cpp_function([](Experiment& e) -> PayloadSettings& { return e.sim.payload; },
+                           py::return_value_policy::reference_internal),
+          [](Experiment& e, const PayloadSettings& v) { e.sim.payload = v; },
+          "The slung payload (PayloadSettings, a view: edit it in place).")
+      .def_property(
           "wind",
           py::cpp_function([](Experiment& e) -> WindSettings& { return e.sim.wind; },
                            py::return_value_policy::reference_internal),

@@ -199,6 +199,8 @@ void bind_sim(py::module_& m) {
           "Rotor faults (a list of RotorFault; assign a new list to change them).")
       .def_readwrite("battery", &SimConfig::battery,
                      "The battery (BatterySettings; off by default: an ideal supply).")
+      .def_readwrite("payload", &SimConfig::payload,
+                     "The slung payload (PayloadSettings; off by default).")
       .def_readwrite("wind", &SimConfig::wind,
                      "Shear, gusts and turbulence around environment.wind_W_m_s (WindSettings).")
       .def_readwrite("noise", &SimConfig::noise)
@@ -390,6 +392,16 @@ void bind_sim(py::module_& m) {
       .def_property_readonly(
           "battery", [](const Simulator& s) { return s.battery(); },
           "The pack now (BatteryState, a copy): soc, voltage_V, current_A, depleted, ...")
+      .def_property_readonly(
+          "payload", [](const Simulator& s) { return s.payload(); },
+          "The slung payload now (PayloadState, a copy).")
+      .def("set_payload_state", &Simulator::set_payload_state, py::arg("payload"),
+           "Places the payload (PayloadState): finite, within the tether length of the vehicle, "
+           "not below the ground.")
+      .def("payload_tension_N", &Simulator::payload_tension_N,
+           "The cable's tension now, N (0 when slack or without a payload).")
+      .def("swing_angles", &Simulator::swing_angles,
+           "Eq. 3.33's swing angles and their rates now (SwingAngles).")
       .def("set_wind_field", &Simulator::set_wind_field, py::arg("wind"),
            "Shear, gusts and turbulence (WindSettings) from the next step on.")
       .def_property_readonly(

@@ -99,6 +99,7 @@ PYBIND11_MODULE(_core, m) {
   dp::bind_wind(m);
   dp::bind_faults(m);
   dp::bind_battery(m);
+  dp::bind_payload(m);
   dp::bind_sim(m);
   dp::bind_control(m);
   dp::bind_io(m);

@@ -210,6 +210,17 @@ class RunObserver final : public LoopObserver {
       row_[k++] = sim.battery().voltage_V;
       row_[k++] = sim.battery().current_A;
     }
+    if (e_.sim.payload.enabled) {
+      const PayloadState& p = sim.payload();
+      for (int i = 0; i < 3; ++i) row_[k++] = p.position_W_m[i];
+      for (int i = 0; i < 3; ++i) row_[k++] = p.velocity_W_m_s[i];
+      const SwingAngles a = sim.swing_angles();
+      row_[k++] = a.gamma1_rad;
+      row_[k++] = a.gamma2_rad;
+      row_[k++] = a.gamma1_rate_rad_s;
+      row_[k++] = a.gamma2_rate_rad_s;
+      row_[k++] = sim.payload_tension_N();
+    }
     if (e_.log.wrench_breakdown) {
       const WrenchBreakdown b = sim.wrench_breakdown();
       for (const Wrench<double>& w : b.terms) {
@@ -508,10 +519,10 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   }
   const std::vector<std::string> diagnostic_names =
       controller_input != nullptr ? controller->diagnostic_names() : std::vector<std::string>{};
-  LogLayout layout{model->num_rotors(),         e.log.measured,   e.log.wrench_breakdown,
-                   controller_input != nullptr, diagnostic_names, e.sensors,
-                   e.estimation.has_value(),    e.depth_cameras,  e.sim.wind.varies(),
-                   e.sim.battery.enabled};
+  LogLayout layout{model->num_rotors(),         e.log.measured,       e.log.wrench_breakdown,
+                   controller_input != nullptr, diagnostic_names,     e.sensors,
+                   e.estimation.has_value(),    e.depth_cameras,      e.sim.wind.varies(),
+                   e.sim.battery.enabled,       e.sim.payload.enabled};
   std::optional<RunSensing> sensing;
   if (!e.sensors.empty()) {
     sensing.emplace(e, sim, *sensors);

@@ -127,6 +127,9 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
   require(!config_.battery.enabled,
           "BatchSimulator: the battery (the config's `battery:`) is flown by Simulator only; "
           "set battery.enabled = false");
+  require(!config_.payload.enabled,
+          "BatchSimulator: the slung payload (the config's `payload:`) is flown by Simulator "
+          "only; set payload.enabled = false");
   stride_ = batch_stride<T>(num_vehicles, "BatchSimulator");
   terms_ = ForceTerms::of(config_.disturbances);
   num_vehicles_ = num_vehicles;

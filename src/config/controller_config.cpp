@@ -69,10 +69,10 @@ double tilt(const Reader& rd, const YAML::Node& node, const std::string& path) {
 // ---- key tables -------------------------------------------------------------------------------
 
 constexpr std::array<std::string_view, 4> kTypes = {"pid", "se3", "nmpc", "policy"};
-constexpr std::array<std::string_view, 16> kTopKeys = {
-    "type",   "description", "allocation",    "mass_kg", "gravity_m_s2", "gains",
-    "limits", "options",     "horizon",       "weights", "solver",       "disturbance",
-    "policy", "env",         "env_overrides", "training"};
+constexpr std::array<std::string_view, 17> kTopKeys = {
+    "type",   "description", "allocation",    "mass_kg",  "gravity_m_s2", "gains",
+    "limits", "options",     "horizon",       "weights",  "solver",       "disturbance",
+    "policy", "env",         "env_overrides", "training", "payload"};
 constexpr std::array<std::string_view, 4> kPolicyOnlyKeys = {"policy", "env", "env_overrides",
                                                              "training"};
 constexpr std::array<std::string_view, 2> kAllocations = {"exact", "thesis"};
@@ -90,6 +90,8 @@ constexpr std::array<std::string_view, 4> kSe3GainKeys = {"position_p", "positio
 constexpr std::array<std::string_view, 2> kSe3LimitKeys = {"max_tilt_rad", "min_thrust_N"};
 constexpr std::array<std::string_view, 2> kSe3OptionKeys = {"gravity_compensation",
                                                             "nonnegative_thrust"};
+constexpr std::array<std::string_view, 3> kSe3PayloadKeys = {"mass_kg", "tether_length_m",
+                                                             "shape_reference"};
 
 constexpr std::array<std::string_view, 3> kNmpcHorizonKeys = {"steps", "step_s", "input_blocks"};
 constexpr std::array<std::string_view, 4> kNmpcWeightKeys = {"state", "input", "terminal_scale",
@@ -166,6 +168,25 @@ void read_se3(const Reader& rd, const Map& top, Se3Settings& c) {
       o.max_tilt_rad = tilt(rd, l.get("max_tilt_rad"), l.path("max_tilt_rad"));
     if (l.has("min_thrust_N"))
       o.min_thrust_N = rd.positive(l.get("min_thrust_N"), l.path("min_thrust_N"));
+  }
+  if (top.has("payload")) {
+    const Map p = rd.map(top.get("payload"), "payload", kSe3PayloadKeys,
+                         "a map of payload settings (mass_kg, tether_length_m, shape_reference)");
+    if (p.has("mass_kg")) {
+      const YAML::Node n = p.get("mass_kg");
+      o.payload_mass_kg = rd.number(n, p.path("mass_kg"));
+      if (o.payload_mass_kg < 0.0)
+        rd.fail(n, p.path("mass_kg"), "expected a mass >= 0, got " + n.Scalar());
+    }
+    if (p.has("tether_length_m"))
+      o.payload_tether_length_m = rd.positive(p.get("tether_length_m"), p.path("tether_length_m"));
+    if (p.has("shape_reference")) {
+      o.shape_reference_for_payload =
+          rd.boolean(p.get("shape_reference"), p.path("shape_reference"));
+      if (o.shape_reference_for_payload && !(o.payload_mass_kg > 0.0 && p.has("tether_length_m")))
+        rd.fail(p.get("shape_reference"), p.path("shape_reference"),
+                "shaping needs the payload's mass_kg > 0 and tether_length_m");
+    }
   }
   if (top.has("options")) {
     const Map p = rd.map(top.get("options"), "options", kSe3OptionKeys, "a map of options");
@@ -364,6 +385,8 @@ ControllerConfig parse_controller_config(const std::string& yaml_text,
   if (type != 2)
     for (const std::string_view key : kNmpcOnlyKeys)
       if (top.has(key)) rd.fail(top.get(key), std::string(key), "only for type nmpc");
+  if (type != 1 && top.has("payload"))
+    rd.fail(top.get("payload"), "payload", "only for type se3 (its payload awareness)");
   if (type != 3)
     for (const std::string_view key : kPolicyOnlyKeys)
       if (top.has(key)) rd.fail(top.get(key), std::string(key), "only for type policy");

@@ -125,6 +125,10 @@ EnvFile parse_env_config(const std::string& yaml_text, const std::string& source
     rd.fail(top.get("battery"), "battery",
             "the battery is flown by the Simulator (experiments), not yet by the batched engine "
             "the environments run on");
+  if (c.sim.payload.enabled)
+    rd.fail(top.get("payload"), "payload",
+            "the slung payload is flown by the Simulator (experiments), not by the batched engine "
+            "the environments run on");
   c.seed = c.sim.seed;
   const auto name = [&](std::string_view key) { return rd.string(top.get(key), top.path(key)); };
   const auto checked = [&](std::string_view key, auto&& convert) {

@@ -13,6 +13,7 @@
 #include <limits>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -45,10 +46,11 @@ using Names = std::vector<std::string_view>;
 // ---- key tables -------------------------------------------------------------------------------
 
 const Names kTopLevelKeys = {
-    "name",       "description",    "model",         "seed",     "duration_s",   "physics_dt_s",
-    "integrator", "motor_dynamics", "noise",         "wind_m_s", "gravity_m_s2", "disturbances",
-    "ground",     "divergence",     "initial_state", "log",      "metrics",      "input",
-    "sensors",    "estimation",     "scene",         "wind",     "faults",       "battery"};
+    "name",         "description",  "model",          "seed",       "duration_s",
+    "physics_dt_s", "integrator",   "motor_dynamics", "noise",      "wind_m_s",
+    "gravity_m_s2", "disturbances", "ground",         "divergence", "initial_state",
+    "log",          "metrics",      "input",          "sensors",    "estimation",
+    "scene",        "wind",         "faults",         "battery",    "payload"};
 const Names kRequiredTopLevelKeys = {"name", "model", "duration_s", "input"};
 const Names kNoiseKeys = {"enabled", "drift", "theta", "sigma"};
 const Names kBlockKeys = {"a", "b"};
@@ -72,6 +74,8 @@ const Names kBatteryKeys = {"enabled",
                             "motor_speed_constant_rad_per_V_s",
                             "cutoff_voltage_V",
                             "initial_soc"};
+const Names kPayloadKeys = {"enabled",      "mass_kg",           "tether_length_m",
+                            "drag_area_m2", "air_density_kg_m3", "initial_swing_rad"};
 const Names kDivergenceKeys = {"max_position_m", "max_speed_m_s", "max_angular_speed_rad_s"};
 const Names kInitialStateKeys = {"position_m",  "velocity_m_s",           "quaternion_wxyz",
                                  "euler_rad",   "angular_velocity_rad_s", "rotor_speeds_rad_s",
@@ -322,24 +326,66 @@ FaultSettings read_faults(const Reader& rd, const YAML::Node& node, const std::s
   return f;
 }
 
+/// A section that is true, false or a map of settings with an optional `enabled` (default true):
+/// sets `enabled` and returns the map when it is one.
+std::optional<Map> switchable_section(const Reader& rd, const YAML::Node& node,
+                                      const std::string& path, const Names& keys,
+                                      const std::string& expected, bool& enabled) {
+  if (node.IsScalar()) {
+    enabled = rd.boolean(node, path);
+    return std::nullopt;
+  }
+  Map m = rd.map(node, path, keys, expected);
+  enabled = m.has("enabled") ? rd.boolean(m.get("enabled"), m.path("enabled")) : true;
+  return m;
+}
+
+/// `payload:` (docs/payload.md): true, false or a map of payload settings over the defaults.
+PayloadSettings read_payload(const Reader& rd, const YAML::Node& node, const std::string& path) {
+  PayloadSettings settings;
+  const std::optional<Map> section = switchable_section(
+      rd, node, path, kPayloadKeys, "true, false or a map of payload settings", settings.enabled);
+  if (!section) return settings;
+  const Map& m = *section;
+  SlungPayload& p = settings.payload;
+  if (m.has("mass_kg")) p.mass_kg = rd.positive(m.get("mass_kg"), m.path("mass_kg"));
+  if (m.has("tether_length_m"))
+    p.tether_length_m = rd.positive(m.get("tether_length_m"), m.path("tether_length_m"));
+  for (const auto& [key, out] :
+       {std::pair<std::string_view, double*>{"drag_area_m2", &p.drag_area_m2},
+        {"air_density_kg_m3", &p.air_density_kg_m3}}) {
+    if (!m.has(key)) continue;
+    const YAML::Node n = m.get(key);
+    *out = rd.number(n, m.path(key));
+    if (*out < 0.0) rd.fail(n, m.path(key), "expected a number >= 0, got " + n.Scalar());
+  }
+  if (m.has("initial_swing_rad")) {
+    const YAML::Node n = m.get("initial_swing_rad");
+    const auto a = rd.fixed<2>(n, m.path("initial_swing_rad"),
+                               "the swing angles gamma1, gamma2 of Eq. 3.33 in rad");
+    if (!(std::abs(a[0]) < 0.5 * std::numbers::pi && std::abs(a[1]) < 0.5 * std::numbers::pi))
+      rd.fail(n, m.path("initial_swing_rad"),
+              detail::concat("expected angles within (-pi/2, pi/2), got [", a[0], ", ", a[1], "]"));
+    settings.initial_swing1_rad = a[0];
+    settings.initial_swing2_rad = a[1];
+  }
+  return settings;
+}
+
 /// `battery:` (docs/battery.md): true, false or a map of pack settings over the defaults.
 BatterySettings read_battery(const Reader& rd, const YAML::Node& node, const std::string& path) {
   BatterySettings b;
-  if (node.IsScalar()) {
-    b.enabled = rd.boolean(node, path);
-    return b;
-  }
-  const Map m = rd.map(node, path, kBatteryKeys, "true, false or a map of battery settings");
-  b.enabled = m.has("enabled") ? rd.boolean(m.get("enabled"), m.path("enabled")) : true;
+  const std::optional<Map> section = switchable_section(
+      rd, node, path, kBatteryKeys, "true, false or a map of battery settings", b.enabled);
+  if (!section) return b;
+  const Map& m = *section;
   BatteryPack& p = b.pack;
-  const auto fraction = [&](std::string_view key, double& out, bool zero_allowed) {
+  const auto fraction = [&](std::string_view key, double& out) {
     if (!m.has(key)) return;
     const YAML::Node n = m.get(key);
     out = rd.number(n, m.path(key));
-    if (out > 1.0 || out < 0.0 || (!zero_allowed && out == 0.0))
-      rd.fail(n, m.path(key),
-              detail::concat("expected a fraction in ", zero_allowed ? "[0, 1]" : "(0, 1]",
-                             ", got ", n.Scalar()));
+    if (!(out > 0.0 && out <= 1.0))
+      rd.fail(n, m.path(key), "expected a fraction in (0, 1], got " + n.Scalar());
   };
   const auto non_negative = [&](std::string_view key, double& out) {
     if (!m.has(key)) return;
@@ -375,12 +421,12 @@ BatterySettings read_battery(const Reader& rd, const YAML::Node& node, const std
         rd.positive(m.get("series_resistance_ohm"), m.path("series_resistance_ohm"));
   non_negative("rc_resistance_ohm", p.rc_resistance_ohm);
   non_negative("rc_capacitance_F", p.rc_capacitance_F);
-  fraction("efficiency", p.efficiency, false);
+  fraction("efficiency", p.efficiency);
   if (m.has("motor_speed_constant_rad_per_V_s"))
     p.motor_speed_constant_rad_per_V_s = rd.positive(m.get("motor_speed_constant_rad_per_V_s"),
                                                      m.path("motor_speed_constant_rad_per_V_s"));
   non_negative("cutoff_voltage_V", p.cutoff_voltage_V);
-  fraction("initial_soc", p.initial_soc, false);
+  fraction("initial_soc", p.initial_soc);
   return b;
 }
 
@@ -1158,6 +1204,7 @@ void read_sim_settings(const Reader& rd, const Map& top, SimConfig& sim) {
     sim.divergence = read_divergence(rd, top.get("divergence"), "divergence");
   if (top.has("faults")) sim.faults = read_faults(rd, top.get("faults"), "faults");
   if (top.has("battery")) sim.battery = read_battery(rd, top.get("battery"), "battery");
+  if (top.has("payload")) sim.payload = read_payload(rd, top.get("payload"), "payload");
 }
 
 std::shared_ptr<const Reference> read_reference_spec(const Reader& rd, const YAML::Node& node,

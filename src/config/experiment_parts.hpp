@@ -18,11 +18,13 @@ namespace dronetwin::io_detail {
 
 /// Top-level keys read by read_sim_settings.
 inline constexpr std::string_view kSimSettingKeys[] = {
-    "seed",         "physics_dt_s", "integrator", "motor_dynamics", "noise",  "wind_m_s", "wind",
-    "gravity_m_s2", "disturbances", "ground",     "divergence",     "faults", "battery"};
+    "seed",       "physics_dt_s", "integrator",   "motor_dynamics", "noise",
+    "wind_m_s",   "wind",         "gravity_m_s2", "disturbances",   "ground",
+    "divergence", "faults",       "battery",      "payload"};
 
 /// seed, physics_dt_s, integrator, motor_dynamics, noise, wind_m_s, wind, gravity_m_s2,
-/// disturbances, ground, divergence, faults and battery of map `top`, where present, into `sim`.
+/// disturbances, ground, divergence, faults, battery and payload of map `top`, where present, into
+/// `sim`.
 void read_sim_settings(const Reader& rd, const Map& top, SimConfig& sim);
 
 /// A `sensors:` list (docs/experiment-format.md, "Sensors") checked against the step `dt_s` at

@@ -37,6 +37,11 @@ void ClosedLoop::control() {
   if (controller_.uses_state_derivative())
     input_.state_derivative = sim_.measured_state_derivative();
   input_.reference = reference_.at(input_.time_s);
+  if (sim_.config().payload.enabled) {
+    input_.payload.available = true;
+    input_.payload.position_W_m = sim_.payload().position_W_m;
+    input_.payload.velocity_W_m_s = sim_.payload().velocity_W_m_s;
+  }
   w_cmd_ = controller_.calculate_actuator_cmd(input_);
   if (controller_.level() == ControlLevel::kGeneralizedForce) {
     u_ = controller_.last_allocation().achieved;

@@ -31,7 +31,7 @@ Se3LawConstants se3_law_constants(const Se3Gains& gains, const Se3Options& optio
   k.position_d = gains.position_d;
   k.attitude_p = gains.attitude_p;
   k.attitude_d = gains.attitude_d;
-  k.mass_kg = gains.mass_kg;
+  k.mass_kg = gains.mass_kg + options.payload_mass_kg;
   k.gravity_m_s2 = gains.gravity_m_s2;
   k.gravity_compensation = options.gravity_compensation;
   k.limit_tilt = !std::isinf(options.max_tilt_rad);
@@ -74,7 +74,26 @@ Se3Controller::Se3Controller(std::shared_ptr<const VehicleModel> model, const Se
   require(std::isfinite(options_.min_thrust_N) && options_.min_thrust_N >= 0.0,
           "se3_geometric: min_thrust_N: expected a number >= 0 (0: no floor), got ",
           options_.min_thrust_N);
+  require(std::isfinite(options_.payload_mass_kg) && options_.payload_mass_kg >= 0.0,
+          "se3_geometric: payload_mass_kg: expected a mass >= 0, got ", options_.payload_mass_kg);
   law_ = se3_law_constants(gains_, options_, this->model().inertia_kgm2());
+  if (options_.shape_reference_for_payload) {
+    require(options_.payload_mass_kg > 0.0,
+            "se3_geometric: shape_reference_for_payload needs payload_mass_kg > 0, got ",
+            options_.payload_mass_kg);
+    require(
+        std::isfinite(options_.payload_tether_length_m) && options_.payload_tether_length_m > 0.0,
+        "se3_geometric: shape_reference_for_payload needs payload_tether_length_m > 0, got ",
+        options_.payload_tether_length_m);
+    for (int i = 0; i < 2; ++i)
+      shapers_[static_cast<std::size_t>(i)] = zv_shaper(slung_payload_swing_modes(
+          gains_.mass_kg, options_.payload_mass_kg, options_.payload_tether_length_m,
+          gains_.gravity_m_s2, gains_.position_p[i], gains_.position_d[i]));
+  }
+}
+
+void Se3Controller::set_reference_preview(const Reference& reference) {
+  if (options_.shape_reference_for_payload) preview_ = reference.clone();
 }
 
 std::unique_ptr<ControllerBase> Se3Controller::clone() const {
@@ -84,7 +103,21 @@ std::unique_ptr<ControllerBase> Se3Controller::clone() const {
 GeneralizedForce Se3Controller::do_calculate_u(const ControlInput& in) {
   using namespace state_index;
   const StateVector& x = in.state;
-  const ReferencePoint& ref = in.reference;
+  ReferencePoint ref = in.reference;
+  if (preview_ != nullptr) {
+    // x and y from the shaped reference: each a weighted sum of the reference at delayed times.
+    for (int i = 0; i < 2; ++i) {
+      const InputShaper& shaper = shapers_[static_cast<std::size_t>(i)];
+      ref.position_m[i] = ref.velocity_m_s[i] = ref.acceleration_m_s2[i] = 0.0;
+      for (int k = 0; k < shaper.count; ++k) {
+        const ShaperImpulse& impulse = shaper.impulses[static_cast<std::size_t>(k)];
+        const ReferencePoint r = preview_->at(in.time_s - impulse.delay_s);
+        ref.position_m[i] += impulse.amplitude * r.position_m[i];
+        ref.velocity_m_s[i] += impulse.amplitude * r.velocity_m_s[i];
+        ref.acceleration_m_s2[i] += impulse.amplitude * r.acceleration_m_s2[i];
+      }
+    }
+  }
   // The law itself is control/se3_law.hpp, shared with the batched controller.
   const Se3LawInput<double> law_in{
       x.segment<3>(kPosition),        x.segment<3>(kVelocity), x.segment<4>(kQuaternion),

@@ -95,6 +95,19 @@ std::vector<LogColumn> log_columns(const LogLayout& layout) {
                  "(0 once cut off); it caps the rotor speeds at K_V V"});
     c.push_back({"battery_current", "A", "battery current of the step that reached t"});
   }
+  if (layout.payload) {
+    for (const char* axis : kAxes)
+      c.push_back({std::string("payload_") + axis, "m",
+                   std::string("slung payload position, world ") + axis + " axis"});
+    for (const char* axis : kAxes)
+      c.push_back({std::string("payload_v") + axis, "m/s",
+                   std::string("slung payload velocity, world ") + axis + " axis"});
+    c.push_back({"swing_1", "rad", "payload swing angle gamma1 of Eq. 3.33 (about the y axis)"});
+    c.push_back({"swing_2", "rad", "payload swing angle gamma2 of Eq. 3.33 (toward +y)"});
+    c.push_back({"swing_rate_1", "rad/s", "rate of swing_1"});
+    c.push_back({"swing_rate_2", "rad/s", "rate of swing_2"});
+    c.push_back({"tension", "N", "cable tension at t (0 while slack)"});
+  }
   if (layout.wrench_breakdown) {
     for (int k = 0; k < kNumTerms; ++k) {
       const std::string term(term_name(static_cast<Term>(k)));

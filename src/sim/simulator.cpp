@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string_view>
 #include <vector>
 
 #include "dronetwin/core/error.hpp"
@@ -104,6 +105,23 @@ void validate_battery(const BatterySettings& settings) {
           b.initial_soc);
 }
 
+void validate_payload(const PayloadSettings& settings) {
+  const SlungPayload& p = settings.payload;
+  const std::string_view bad = payload_settings_problem(settings);
+  if (bad.empty()) return;
+  if (bad == "initial_swing_rad")
+    throw InvalidArgument(detail::concat(
+        "simulation config: payload.initial_swing_rad: expected finite angles, got [",
+        settings.initial_swing1_rad, ", ", settings.initial_swing2_rad, "]"));
+  const double value = bad == "mass_kg"           ? p.mass_kg
+                       : bad == "tether_length_m" ? p.tether_length_m
+                       : bad == "drag_area_m2"    ? p.drag_area_m2
+                                                  : p.air_density_kg_m3;
+  const bool zero_allowed = bad == "drag_area_m2" || bad == "air_density_kg_m3";
+  throw InvalidArgument(detail::concat("simulation config: payload.", bad, ": expected ",
+                                       zero_allowed ? ">= 0" : "> 0", ", got ", value));
+}
+
 }  // namespace
 
 /// Lost-effectiveness faults in the order they begin (ties in file order): models[k] and
@@ -122,6 +140,7 @@ void validate(const SimConfig& c) {
   validate_wind(c.wind);
   validate_faults(c.faults);
   validate_battery(c.battery);
+  validate_payload(c.payload);
   const OuParameters& p = c.noise.parameters;
   const double drift_scale = p.drift == OuDrift::kPerSample ? 1.0 : c.dt_s;
   for (int k = 0; k < 4; ++k) {
@@ -213,6 +232,9 @@ void Simulator::reset(const StateVector& state, const RotorVector& rotor_speeds_
   data_.active_faults = 0;
   data_.stuck_speed_rad_s = {};
   data_.battery = battery_start(config_.battery.pack);
+  data_.payload =
+      payload_start(config_.payload, data_.state.segment<3>(state_index::kPosition),
+                    data_.state.segment<3>(state_index::kVelocity), config_.ground.enabled);
   data_.contact = ContactState{};
   if (config_.ground.enabled && data_.state[state_index::kPosition + 2] <= 0.0) {
     data_.contact.in_contact = true;
@@ -231,6 +253,18 @@ void Simulator::reseed(std::uint64_t seed) {
 void Simulator::set_state(const StateVector& state) {
   const SingleThreadGuard::Hold hold(guard_, "Simulator::set_state");
   require_start_state(state, config_.ground.enabled, "");
+  if (config_.payload.enabled) {
+    // The payload goes with the vehicle: same offset, same relative velocity.
+    using namespace state_index;
+    PayloadState& payload = data_.payload;
+    payload.position_W_m += state.segment<3>(kPosition) - data_.state.segment<3>(kPosition);
+    payload.velocity_W_m_s += state.segment<3>(kVelocity) - data_.state.segment<3>(kVelocity);
+    if (config_.ground.enabled && payload.position_W_m.z() <= 0.0) {
+      payload.position_W_m.z() = 0.0;
+      payload.velocity_W_m_s.setZero();
+      payload.on_ground = true;
+    }
+  }
   data_.state = state;
   normalize_quaternion(data_.state);
   update_measured_state();
@@ -445,14 +479,20 @@ StepResult Simulator::step_unchecked() {
                           "); call reset() first");
   }
   // Rotor speeds are held over the step: do their part of the force model once.
-  StateVector next = held_rotor_step(active_kernel(data_.time_s), config_.integrator, data_.state,
-                                     data_.rotor_speed_rad_s, data_.wind_W_m_s,
-                                     config_.environment.gravity_W_m_s2, config_.dt_s);
+  PayloadState payload = data_.payload;
+  StateVector next = config_.payload.enabled
+                         ? step_with_payload(payload)
+                         : held_rotor_step(active_kernel(data_.time_s), config_.integrator,
+                                           data_.state, data_.rotor_speed_rad_s, data_.wind_W_m_s,
+                                           config_.environment.gravity_W_m_s2, config_.dt_s);
   // Contact is resolved on a copy: a refused step must not change it (nor anything else).
   ContactState contact = data_.contact;
   resolve_ground_contact(config_.ground, data_.state, config_.dt_s, next, contact);
 
   StepStatus status = check_state(next);
+  if (status == StepStatus::kOk && config_.payload.enabled &&
+      !(payload.position_W_m.allFinite() && payload.velocity_W_m_s.allFinite()))
+    status = StepStatus::kNonFinite;
   SceneContact scene_contact;
   if (status == StepStatus::kOk && scene_ != nullptr) {
     scene_contact = find_scene_contact(*scene_, model_->collision_shape(), data_.state, next);
@@ -483,6 +523,7 @@ StepResult Simulator::step_unchecked() {
   }
   data_.state = next;
   data_.contact = contact;
+  data_.payload = payload;
   // Faults of the motors: a stopped rotor is driven to zero, a stuck one keeps the speed it had
   // when its fault began (recorded at that step, whose forces used it).
   const FaultSettings& faults = config_.faults;
@@ -552,11 +593,125 @@ StepResult Simulator::step(std::int64_t n) {
   return total;
 }
 
+CableCoupling Simulator::payload_coupling_now(const ForceKernel<double>& kernel,
+                                              const HeldRotorTerms<double>& held,
+                                              PayloadState& payload, bool& pulling) const {
+  using namespace state_index;
+  const SlungPayload& p = config_.payload.payload;
+  const Vec3& g = config_.environment.gravity_W_m_s2;
+  const double m_Q = active_model(data_.time_s).mass_kg();
+  const StateVector xdot = kernel.derivative(held, data_.state, data_.wind_W_m_s, g);
+  const auto coupling = [&](bool pull) {
+    return cable_coupling(p, m_Q, pull, payload.on_ground, data_.state.segment<3>(kPosition),
+                          data_.state.segment<3>(kVelocity), xdot.segment<3>(kVelocity),
+                          payload.position_W_m, payload.velocity_W_m_s, data_.wind_W_m_s, g);
+  };
+  CableCoupling c = coupling(payload.taut);
+  if (payload_lifts_off(p, payload, c.tension_N, data_.state.segment<3>(kPosition), g)) {
+    payload.on_ground = false;
+    c = coupling(payload.taut);
+  }
+  pulling = cable_pulls(payload, c.tension_N);
+  if (!pulling) c = coupling(false);
+  return c;
+}
+
+StateVector Simulator::step_with_payload(PayloadState& payload) {
+  using namespace state_index;
+  using Augmented = Eigen::Matrix<double, kStateSize + 6, 1>;
+  const ForceKernel<double>& kernel = active_kernel(data_.time_s);
+  kernel.prepare(data_.rotor_speed_rad_s, held_);
+  bool pulling = false;
+  (void)payload_coupling_now(kernel, held_, payload, pulling);
+  const SlungPayload& p = config_.payload.payload;
+  const Vec3& g = config_.environment.gravity_W_m_s2;
+  const double m_Q = active_model(data_.time_s).mass_kg();
+  const bool on_ground = payload.on_ground;
+  const auto f = [&](const Augmented& y) {
+    const StateVector x = y.head<kStateSize>();
+    Augmented ydot;
+    StateVector xdot = kernel.derivative(held_, x, data_.wind_W_m_s, g);
+    const CableCoupling c =
+        cable_coupling(p, m_Q, pulling, on_ground, x.segment<3>(kPosition), x.segment<3>(kVelocity),
+                       xdot.segment<3>(kVelocity), y.segment<3>(kStateSize),
+                       y.segment<3>(kStateSize + 3), data_.wind_W_m_s, g);
+    xdot.segment<3>(kVelocity) += c.vehicle_acceleration_W_m_s2;
+    ydot.head<kStateSize>() = xdot;
+    if (on_ground) {
+      ydot.segment<3>(kStateSize).setZero();
+    } else {
+      ydot.segment<3>(kStateSize) = y.segment<3>(kStateSize + 3);
+    }
+    ydot.segment<3>(kStateSize + 3) = c.payload_acceleration_W_m_s2;
+    return ydot;
+  };
+  Augmented y;
+  y << data_.state, payload.position_W_m, payload.velocity_W_m_s;
+  const Augmented y1 = integrate_step(config_.integrator, y, config_.dt_s, f);
+  StateVector next = y1.head<kStateSize>();
+  normalize_quaternion(next);
+  payload.position_W_m = y1.segment<3>(kStateSize);
+  payload.velocity_W_m_s = y1.segment<3>(kStateSize + 3);
+  Vec3 position = next.segment<3>(kPosition);
+  Vec3 velocity = next.segment<3>(kVelocity);
+  settle_cable(p, m_Q, pulling, config_.ground.enabled, position, velocity, payload);
+  next.segment<3>(kPosition) = position;
+  next.segment<3>(kVelocity) = velocity;
+  return next;
+}
+
+double Simulator::payload_tension_N() const {
+  if (!config_.payload.enabled) return 0.0;
+  HeldRotorTerms<double> held;
+  const ForceKernel<double>& kernel = active_kernel(data_.time_s);
+  kernel.prepare(data_.rotor_speed_rad_s, held);
+  PayloadState payload = data_.payload;
+  bool pulling = false;
+  return payload_coupling_now(kernel, held, payload, pulling).tension_N;
+}
+
+SwingAngles Simulator::swing_angles() const {
+  using namespace state_index;
+  if (!config_.payload.enabled) return {};
+  return dronetwin::swing_angles(data_.state.segment<3>(kPosition),
+                                 data_.state.segment<3>(kVelocity), data_.payload);
+}
+
+void Simulator::set_payload_state(const PayloadState& payload) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_payload_state");
+  require(config_.payload.enabled,
+          "set_payload_state: this simulator has no payload (SimConfig::payload.enabled is false)");
+  require(payload.position_W_m.allFinite(), "payload position: expected finite numbers, got [",
+          payload.position_W_m.transpose(), "]");
+  require(payload.velocity_W_m_s.allFinite(), "payload velocity: expected finite numbers, got [",
+          payload.velocity_W_m_s.transpose(), "]");
+  const double l = config_.payload.payload.tether_length_m;
+  const double length =
+      (payload.position_W_m - data_.state.segment<3>(state_index::kPosition)).norm();
+  require(length <= l * (1.0 + 1e-9), "payload position: ", length,
+          " m from the vehicle, beyond the tether length ", l, " m");
+  require(!config_.ground.enabled || payload.position_W_m.z() >= 0.0,
+          "payload position: z = ", payload.position_W_m.z(), " m is below the ground");
+  PayloadState s = payload;
+  s.taut = length >= l * (1.0 - 1e-9);
+  s.on_ground = config_.ground.enabled && s.position_W_m.z() <= 0.0 && s.velocity_W_m_s.z() <= 0.0;
+  if (s.on_ground) s.velocity_W_m_s.setZero();
+  data_.payload = s;
+}
+
 StateVector Simulator::state_derivative() const {
   HeldRotorTerms<double> held;
   const ForceKernel<double>& kernel = active_kernel(data_.time_s);
   kernel.prepare(data_.rotor_speed_rad_s, held);
-  return kernel.derivative(held, data_.state, data_.wind_W_m_s, config_.environment.gravity_W_m_s2);
+  StateVector xdot =
+      kernel.derivative(held, data_.state, data_.wind_W_m_s, config_.environment.gravity_W_m_s2);
+  if (config_.payload.enabled) {
+    PayloadState payload = data_.payload;
+    bool pulling = false;
+    xdot.segment<3>(state_index::kVelocity) +=
+        payload_coupling_now(kernel, held, payload, pulling).vehicle_acceleration_W_m_s2;
+  }
+  return xdot;
 }
 
 StateVector Simulator::measured_state_derivative() const {

@@ -653,6 +653,11 @@ const std::vector<BadCase> kBadCases = {
      {"battery.ocv_cell_V: [3]: expected a voltage > 0 not below the one before it, got 3.6",
       "line 6"}},
     {"battery_key_typo.yaml", {"capacity_mAh", "did you mean 'capacity_Ah'?"}},
+    {"payload_tether_zero.yaml",
+     {"payload.tether_length_m: expected a number > 0, got 0", "line 6"}},
+    {"payload_swing_too_large.yaml",
+     {"payload.initial_swing_rad: expected angles within (-pi/2, pi/2), got [2, 0]", "line 6"}},
+    {"payload_key_typo.yaml", {"tether_length", "did you mean 'tether_length_m'?"}},
     {"fault_type_typo.yaml",
      {"faults[0].type: unknown fault type 'rotor_stopp'", "did you mean 'rotor_stop'?", "line 6"}},
     {"first_segment_not_at_zero.yaml", {"input.segments[0].start_s: expected 0", "got 0.5"}},
@@ -739,7 +744,7 @@ TEST(BadExperimentCorpus, CorpusIsFullyCovered) {
   std::set<std::string> covered;
   for (const BadCase& c : kBadCases) covered.insert(c.file);
   EXPECT_EQ(files, covered);
-  EXPECT_EQ(files.size(), 49u);
+  EXPECT_EQ(files.size(), 52u);
   EXPECT_GE(files.size(), 10u);
 }
 

@@ -96,6 +96,32 @@ TEST(NoAllocation, WindFieldFaultsAndBatteryDoNotAllocate) {
   EXPECT_LT(sim.rotor_speeds_rad_s()[2], 3000.0);  // capped by the sagging pack
 }
 
+// A slung payload: the step integrates it with the vehicle (the payload's drag on), reads its
+// tension and swing, and lets it go slack and jerk taut again (the rotors off, then on).
+TEST(NoAllocation, SlungPayloadDoesNotAllocate) {
+  SimConfig cfg;
+  cfg.payload.enabled = true;
+  cfg.payload.payload.drag_area_m2 = 0.01;
+  cfg.payload.initial_swing1_rad = 0.3;
+  cfg.environment.wind_W_m_s << 2.0, 0.0, 0.0;
+  const auto model = test::load_model("qdrone2");
+  Simulator sim(model, cfg);
+  sim.reset(Simulator::hover_state(Vec3(0, 0, 3.0)), model->hover_speeds_rad_s());
+  sim.set_rotor_speed_reference(model->hover_speeds_rad_s());
+  const long before = g_allocations.load();
+  for (int k = 0; k < 1500; ++k) {
+    // 0.2 s of free fall: the cable goes slack; the rotors back on jerk it taut.
+    if (k == 500) sim.set_rotor_speed_reference(RotorVector::Zero(model->num_rotors()));
+    if (k == 700) sim.set_rotor_speed_reference(model->hover_speeds_rad_s() * 1.3);
+    ASSERT_TRUE(sim.step().ok()) << sim.failure_message();
+    volatile double sink = sim.state_derivative()[5] + sim.payload_tension_N() +
+                           sim.swing_angles().gamma1_rad + sim.payload().position_W_m.z();
+    (void)sink;
+  }
+  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_TRUE(sim.payload().taut);
+}
+
 // The batch (issue: no allocation per step): stepping with two threads, parameters changed
 // between steps (the packs are rebuilt in place), lanes failing and reset.
 TEST(NoAllocation, BatchSteppingDoesNotAllocate) {

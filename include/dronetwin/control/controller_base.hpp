@@ -34,12 +34,22 @@
 
 namespace dronetwin {
 
+/// A slung payload as a controller sees it (payload/slung_payload.hpp): its position and
+/// velocity, world frame, as a motion-capture marker on the load gives them (true values).
+/// `available` is false when the simulator flies no payload.
+struct PayloadObservation {
+  bool available = false;
+  Vec3 position_W_m = Vec3::Zero();
+  Vec3 velocity_W_m_s = Vec3::Zero();
+};
+
 /// What a controller sees at one control step.
 struct ControlInput {
   double time_s = 0.0;
   StateVector state = StateVector::Zero();             ///< measured X (noisy when noise is on)
   StateVector state_derivative = StateVector::Zero();  ///< measured X_dot
   ReferencePoint reference{};
+  PayloadObservation payload{};
 };
 
 enum class ControlLevel {

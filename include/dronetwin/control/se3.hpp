@@ -23,6 +23,11 @@
 //   const CircleReference circle;                // Eq. 3.28; must outlive the loop
 //   ClosedLoop loop(sim, se3, circle, 1000.0);
 //
+// With Se3Options::payload_mass_kg it carries a slung payload's weight: the load's mass joins the
+// vehicle's in the feedforward m a_des + m g e3. With shape_reference_for_payload it also shapes
+// the horizontal reference so that its own moves leave the payload swinging far less
+// (docs/payload.md).
+//
 // Trap: without gravity_compensation (as printed) the vehicle hovers where K_p e_p,z = m g, i.e.
 // m g / K_p,z = 0.45 m below the reference. |F| -> 0 (for instance commanding free fall) leaves
 // b3d undefined; the controller then keeps b3d = e3 instead of producing NaN.
@@ -32,6 +37,7 @@
 #include <string_view>
 
 #include "dronetwin/control/controller_base.hpp"
+#include "dronetwin/control/input_shaper.hpp"
 #include "dronetwin/control/se3_law.hpp"
 
 namespace dronetwin {
@@ -63,6 +69,17 @@ struct Se3Options {
   /// moments: the attitude is then uncontrolled and the vehicle can tumble. A floor keeps
   /// authority (config/controllers/se3_racing.yaml, docs/controllers.md).
   double min_thrust_N = 0.0;
+  /// Payload awareness (docs/payload.md; not in the thesis, whose SE(3) flies the payload with
+  /// the gains of the flight without it). The mass of a slung payload, kg, added to the mass in
+  /// m a_des and m g e3: the controller carries the load's weight instead of sagging under it.
+  double payload_mass_kg = 0.0;
+  /// Input shaping against the payload's swing (control/input_shaper.hpp): the horizontal
+  /// reference is convolved with the ZV shapers of the swing modes of this controller's own
+  /// position loop with a payload of payload_mass_kg on a tether of payload_tether_length_m
+  /// (both > 0 then). Needs the reference ahead of time (set_reference_preview, which
+  /// ClosedLoop calls); without it the reference is flown as given.
+  bool shape_reference_for_payload = false;
+  double payload_tether_length_m = 0.0;
 };
 
 /// The constants of the law (control/se3_law.hpp) for these gains, options and inertia.
@@ -89,6 +106,11 @@ class Se3Controller final : public ControllerBase {
   const Se3Gains& gains() const { return gains_; }
   const Se3Options& options() const { return options_; }
   const Se3LawConstants& law() const { return law_; }
+  /// The shapers of the x and y references (one impulse of 1 when shaping is off).
+  const std::array<InputShaper, 2>& shapers() const { return shapers_; }
+
+  /// Keeps the reference (shared, immutable) for input shaping; ignored when shaping is off.
+  void set_reference_preview(const Reference& reference) override;
 
  protected:
   GeneralizedForce do_calculate_u(const ControlInput& in) override;
@@ -97,6 +119,8 @@ class Se3Controller final : public ControllerBase {
   Se3Gains gains_;
   Se3Options options_;
   Se3LawConstants law_;
+  std::array<InputShaper, 2> shapers_{};
+  std::shared_ptr<const Reference> preview_;
 };
 
 }  // namespace dronetwin

@@ -14,7 +14,8 @@
 // world position/velocity, q_WB, body rates), omega_0..omega_{N-1} (achieved rotor speeds, rad/s),
 // omega_ref_0..omega_ref_{N-1} (references), [meas_x .. meas_wz (measured state)], in_contact,
 // crashed, [wind_x, wind_y, wind_z (air velocity at the vehicle, world frame)], [battery_soc,
-// battery_voltage, battery_current (the pack after the step that reached t)], [F_<term>_x,
+// battery_voltage, battery_current (the pack after the step that reached t)], [payload_x ..
+// payload_vz, swing_1, swing_2, swing_rate_1, swing_rate_2, tension (slung payload)], [F_<term>_x,
 // F_<term>_y, F_<term>_z, M_<term>_x, M_<term>_y, M_<term>_z for each term, body frame],
 // [<sensor>_t, <sensor>_<channel> for each sensor (its latest delivered reading)], [est_x .. est_wz
 // (the EKF's estimate)], [ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y, u_tau_z, saturated
@@ -64,6 +65,9 @@ struct LogLayout {
   bool wind = false;
   /// battery_soc, battery_voltage, battery_current after the wind columns (with a battery).
   bool battery = false;
+  /// payload_x .. payload_vz, swing_1, swing_2, swing_rate_1, swing_rate_2, tension after the
+  /// battery columns (with a slung payload).
+  bool payload = false;
 };
 
 /// One column of a log: its header name, its unit ("s", "m", "m/s", "1" (dimensionless, e.g. a

@@ -12,6 +12,7 @@
 #include "dronetwin/faults/rotor_fault.hpp"
 #include "dronetwin/integrators/integrator.hpp"
 #include "dronetwin/noise/ornstein_uhlenbeck.hpp"
+#include "dronetwin/payload/slung_payload.hpp"
 #include "dronetwin/power/battery.hpp"
 
 namespace dronetwin {
@@ -43,6 +44,8 @@ struct SimConfig {
   FaultSettings faults{};
   /// An equivalent-circuit pack that drains and caps the rotor speed (default off: ideal supply).
   BatterySettings battery{};
+  /// A payload on a tether under the vehicle (default off).
+  PayloadSettings payload{};
   NoiseConfig noise{};
   GroundConfig ground{};
   DivergenceLimits divergence{};

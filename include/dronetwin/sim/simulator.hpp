@@ -41,6 +41,11 @@
 // power from the pack; the pack it leaves caps the rotor speed references the motors head for
 // next at w = K_V V(w), and a cut-off pack stops the motors.
 //
+// Payload (payload/slung_payload.hpp): the payload's position and velocity are integrated with
+// the vehicle's state in the same RK4 step, the cable's tension coupling the two; after the step
+// the cable is settled (length l kept, a slack cable jerking taut) and a payload reaching the
+// ground stops on it. reset() hangs it at rest below the vehicle.
+//
 // Scene: with set_scene() a step whose motion brings the model's collision shape into a gate's
 // frame or an obstacle (world/collision.hpp) is refused like a diverged one, with status
 // kCollided and a failure_message() naming the object.
@@ -153,6 +158,8 @@ struct SimData {
   /// The pack (SimConfig::battery): charge, RC voltage, the current of the last step and the
   /// terminal voltage under it, which caps the rotor speeds of the next.
   BatteryState battery;
+  /// The slung payload (SimConfig::payload; unused when it is off).
+  PayloadState payload;
   ContactState contact;
   StepStatus status = StepStatus::kOk;
   StepFailure failure;
@@ -247,6 +254,15 @@ class Simulator {
   /// restarts at its initial charge.
   void set_battery(const BatterySettings& battery);
   const BatteryState& battery() const { return data_.battery; }
+  /// The payload now (SimData::payload); meaningful when config().payload.enabled.
+  const PayloadState& payload() const { return data_.payload; }
+  /// Places the payload (validated: finite, within the tether length of the vehicle, not below
+  /// the ground when it is on); taut when exactly at the tether's length.
+  void set_payload_state(const PayloadState& payload);
+  /// The cable's tension now, N (0 when slack or without a payload).
+  double payload_tension_N() const;
+  /// Eq. 3.33's swing angles and their rates now.
+  SwingAngles swing_angles() const;
   /// The air velocity at the vehicle now (SimData::wind_W_m_s), world frame, m/s.
   const Vec3& wind_W_m_s() const { return data_.wind_W_m_s; }
   void set_disturbances(const DisturbanceSwitches& switches);
@@ -273,6 +289,14 @@ class Simulator {
   void update_measured_state();
   void update_wind();
   void build_fault_forces();
+  /// One RK4 step of the vehicle and the payload together (SimConfig::payload on): the vehicle's
+  /// next state; the payload's next state in `payload`.
+  StateVector step_with_payload(PayloadState& payload);
+  /// The cable's coupling at the current state for the mode a step starting now would hold
+  /// (lift-off of a resting payload decided here too: `payload` is updated).
+  CableCoupling payload_coupling_now(const ForceKernel<double>& kernel,
+                                     const HeldRotorTerms<double>& held, PayloadState& payload,
+                                     bool& pulling) const;
   /// How many lost-effectiveness faults act at `time_s`; the force kernel and model for them (the
   /// nominal ones without).
   std::size_t effectiveness_stage(double time_s) const;
