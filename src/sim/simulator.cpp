@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <string_view>
 #include <vector>
 
 #include "dronetwin/core/error.hpp"
@@ -107,19 +106,18 @@ void validate_battery(const BatterySettings& settings) {
 
 void validate_payload(const PayloadSettings& settings) {
   const SlungPayload& p = settings.payload;
-  const std::string_view bad = payload_settings_problem(settings);
-  if (bad.empty()) return;
-  if (bad == "initial_swing_rad")
-    throw InvalidArgument(detail::concat(
-        "simulation config: payload.initial_swing_rad: expected finite angles, got [",
-        settings.initial_swing1_rad, ", ", settings.initial_swing2_rad, "]"));
-  const double value = bad == "mass_kg"           ? p.mass_kg
-                       : bad == "tether_length_m" ? p.tether_length_m
-                       : bad == "drag_area_m2"    ? p.drag_area_m2
-                                                  : p.air_density_kg_m3;
-  const bool zero_allowed = bad == "drag_area_m2" || bad == "air_density_kg_m3";
-  throw InvalidArgument(detail::concat("simulation config: payload.", bad, ": expected ",
-                                       zero_allowed ? ">= 0" : "> 0", ", got ", value));
+  const auto check = [](double v, bool zero_allowed, const char* field) {
+    require(std::isfinite(v) && (v > 0.0 || (zero_allowed && v == 0.0)),
+            "simulation config: payload.", field, ": expected ", zero_allowed ? ">= 0" : "> 0",
+            ", got ", v);
+  };
+  check(p.mass_kg, false, "mass_kg");
+  check(p.tether_length_m, false, "tether_length_m");
+  check(p.drag_area_m2, true, "drag_area_m2");
+  check(p.air_density_kg_m3, true, "air_density_kg_m3");
+  require(std::isfinite(settings.initial_swing1_rad) && std::isfinite(settings.initial_swing2_rad),
+          "simulation config: payload.initial_swing_rad: expected finite angles, got [",
+          settings.initial_swing1_rad, ", ", settings.initial_swing2_rad, "]");
 }
 
 }  // namespace
@@ -259,11 +257,7 @@ void Simulator::set_state(const StateVector& state) {
     PayloadState& payload = data_.payload;
     payload.position_W_m += state.segment<3>(kPosition) - data_.state.segment<3>(kPosition);
     payload.velocity_W_m_s += state.segment<3>(kVelocity) - data_.state.segment<3>(kVelocity);
-    if (config_.ground.enabled && payload.position_W_m.z() <= 0.0) {
-      payload.position_W_m.z() = 0.0;
-      payload.velocity_W_m_s.setZero();
-      payload.on_ground = true;
-    }
+    if (config_.ground.enabled && payload.position_W_m.z() <= 0.0) rest_on_ground(payload);
   }
   data_.state = state;
   normalize_quaternion(data_.state);
@@ -694,8 +688,9 @@ void Simulator::set_payload_state(const PayloadState& payload) {
           "payload position: z = ", payload.position_W_m.z(), " m is below the ground");
   PayloadState s = payload;
   s.taut = length >= l * (1.0 - 1e-9);
-  s.on_ground = config_.ground.enabled && s.position_W_m.z() <= 0.0 && s.velocity_W_m_s.z() <= 0.0;
-  if (s.on_ground) s.velocity_W_m_s.setZero();
+  s.on_ground = false;
+  if (config_.ground.enabled && s.position_W_m.z() <= 0.0 && s.velocity_W_m_s.z() <= 0.0)
+    rest_on_ground(s);
   data_.payload = s;
 }
 

@@ -71,10 +71,16 @@ TEST(InputShaper, TheSe3ControllerShapesWithItsOwnGainsAndNeedsThePayload) {
                 expected.impulses[static_cast<std::size_t>(k)].delay_s);
   }
   options.payload_tether_length_m = 0.0;
-  EXPECT_NE(test::error_of([&] {
-              Se3Controller bad(model, gains, options);
-            }).find("payload_tether_length_m > 0"),
-            std::string::npos);
+  const auto error = [&] {
+    return test::error_of([&] { Se3Controller bad(model, gains, options); });
+  };
+  EXPECT_EQ(error(),
+            "se3_geometric: shape_reference_for_payload needs payload_tether_length_m > 0, got 0");
+  options.payload_tether_length_m = kTetherM;
+  options.payload_mass_kg = 0.0;
+  EXPECT_EQ(error(), "se3_geometric: shape_reference_for_payload needs payload_mass_kg > 0, got 0");
+  options.payload_mass_kg = -1.0;
+  EXPECT_EQ(error(), "se3_geometric: payload_mass_kg: expected a mass >= 0, got -1");
 }
 
 }  // namespace

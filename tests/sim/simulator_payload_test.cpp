@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <string>
@@ -335,6 +336,14 @@ TEST(SimulatorPayload, BadSettingsAndPlacementsAreNamed) {
   EXPECT_EQ(test::error_of([&] { Simulator s(model, c); }),
             "simulation config: payload.drag_area_m2: expected >= 0, got nan");
   c.payload.payload.drag_area_m2 = 0.0;
+  c.payload.payload.air_density_kg_m3 = -1.0;
+  EXPECT_EQ(test::error_of([&] { Simulator s(model, c); }),
+            "simulation config: payload.air_density_kg_m3: expected >= 0, got -1");
+  c.payload.payload.air_density_kg_m3 = 1.225;
+  c.payload.initial_swing2_rad = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(test::error_of([&] { Simulator s(model, c); }),
+            "simulation config: payload.initial_swing_rad: expected finite angles, got [0, inf]");
+  c.payload.initial_swing2_rad = 0.0;
   Simulator sim(model, c);
   sim.reset(Simulator::hover_state(Vec3(0.0, 0.0, 2.0)));
   PayloadState s;

@@ -22,8 +22,8 @@
 // reaches the ground stops there (sticky ground, no bounce).
 //
 // Swing angles as parametrised by Eq. 3.33: r / l = (sin g1 cos g2, sin g2, -cos g1 cos g2), z up.
-// (Eq. 3.36's arctan(l1 / l3), arctan(l2 / l3) do not invert that parametrisation; thesis-notes
-// and docs/payload.md say why we invert Eq. 3.33 exactly instead.)
+// (Eq. 3.36's arctan(l1 / l3), arctan(l2 / l3) do not invert that parametrisation; docs/payload.md
+// says why we invert Eq. 3.33 exactly instead.)
 
 #include <algorithm>
 #include <cmath>
@@ -74,17 +74,11 @@ struct CableCoupling {
   Vec3 payload_acceleration_W_m_s2 = Vec3::Zero();
 };
 
-/// The name of the first bad field, empty when all are fine.
-inline const char* payload_settings_problem(const PayloadSettings& settings) {
-  const SlungPayload& p = settings.payload;
-  if (!(std::isfinite(p.mass_kg) && p.mass_kg > 0.0)) return "mass_kg";
-  if (!(std::isfinite(p.tether_length_m) && p.tether_length_m > 0.0)) return "tether_length_m";
-  if (!(std::isfinite(p.drag_area_m2) && p.drag_area_m2 >= 0.0)) return "drag_area_m2";
-  if (!(std::isfinite(p.air_density_kg_m3) && p.air_density_kg_m3 >= 0.0))
-    return "air_density_kg_m3";
-  if (!std::isfinite(settings.initial_swing1_rad)) return "initial_swing_rad";
-  if (!std::isfinite(settings.initial_swing2_rad)) return "initial_swing_rad";
-  return "";
+/// Puts the payload down at its (x, y) on the ground, at rest (sticky ground: no bounce, no slide).
+inline void rest_on_ground(PayloadState& s) {
+  s.position_W_m.z() = 0.0;
+  s.velocity_W_m_s.setZero();
+  s.on_ground = true;
 }
 
 /// Where Eq. 3.33 puts the payload for swing angles g1, g2: x_Q + l (sin g1 cos g2, sin g2,
@@ -107,9 +101,8 @@ inline PayloadState payload_start(const PayloadSettings& settings, const Vec3& v
                                        settings.initial_swing2_rad);
   s.velocity_W_m_s = vehicle_velocity_W_m_s;
   if (ground_enabled && s.position_W_m.z() <= 0.0) {
-    s.position_W_m = Vec3(vehicle_position_W_m.x(), vehicle_position_W_m.y(), 0.0);
-    s.velocity_W_m_s.setZero();
-    s.on_ground = true;
+    s.position_W_m.head<2>() = vehicle_position_W_m.head<2>();
+    rest_on_ground(s);
     s.taut = vehicle_position_W_m.z() >= l;
   }
   return s;
@@ -161,8 +154,8 @@ inline CableCoupling cable_coupling(const SlungPayload& p, double vehicle_mass_k
 }
 
 /// After a step: a cable that pulled is put back at length l with no relative speed along it; a
-/// slack one stretched past l jerks taut (inelastic); a free payload below the ground stops on it;
-/// a resting one whose cable pulled it up by more than its weight (`lifts_off`) is freed.
+/// slack one stretched past l jerks taut (inelastic); a free payload below the ground stops on it.
+/// (A resting payload is freed at a step's start, by payload_lifts_off().)
 /// Positions and velocities are moved along q in inverse proportion to the masses, so the centre
 /// of mass and the momentum stay (a resting payload does not move: the ground takes its share).
 inline void settle_cable(const SlungPayload& p, double vehicle_mass_kg, bool pulled,
@@ -188,11 +181,7 @@ inline void settle_cable(const SlungPayload& p, double vehicle_mass_kg, bool pul
   } else {
     s.taut = false;
   }
-  if (ground_enabled && !s.on_ground && s.position_W_m.z() <= 0.0) {
-    s.position_W_m.z() = 0.0;
-    s.velocity_W_m_s.setZero();
-    s.on_ground = true;
-  }
+  if (ground_enabled && !s.on_ground && s.position_W_m.z() <= 0.0) rest_on_ground(s);
 }
 
 /// Whether a resting payload leaves the ground at this step's start: the taut cable's upward pull
