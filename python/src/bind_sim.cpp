@@ -379,6 +379,23 @@ void bind_sim(py::module_& m) {
           "Mean air velocity, world frame, m/s (at the shear's reference height when the wind is "
           "sheared), from the next step on.")
       .def(
+          "set_interaction",
+          [](Simulator& s, py::handle flow, py::handle wrench) {
+            s.set_interaction(to_fixed<3>(flow, "set_interaction: flow_W_m_s"),
+                              to_fixed<6>(wrench, "set_interaction: wrench_B"));
+          },
+          py::arg("flow_W_m_s"), py::arg("wrench_B"),
+          "Other vehicles' influence from the next step on, until set again (reset clears it): "
+          "an air velocity added to the wind (world frame, m/s) and a body wrench [F_B (N), "
+          "M_B (N m)] added to the rotors' (downwash_effect computes both).")
+      .def_property_readonly(
+          "interaction",
+          [](const Simulator& s) {
+            return py::make_tuple(copy_of(s.data().interaction_flow_W_m_s),
+                                  copy_of(s.data().interaction_wrench_B));
+          },
+          "(flow_W_m_s, wrench_B) now (copies), as set by set_interaction or a fleet.")
+      .def(
           "set_faults",
           [](Simulator& s, const std::vector<RotorFault>& f) {
             s.set_faults(fault_settings_of(f));

@@ -37,6 +37,7 @@ void bind_wind(py::module_& m);
 void bind_faults(py::module_& m);
 void bind_battery(py::module_& m);
 void bind_payload(py::module_& m);
+void bind_fleet(py::module_& m);
 
 /// 'light', 'moderate' or 'severe' (ValueError naming the choices otherwise).
 TurbulenceSeverity severity_from_name(const std::string& name);

@@ -103,6 +103,7 @@ PYBIND11_MODULE(_core, m) {
   dp::bind_sim(m);
   dp::bind_control(m);
   dp::bind_io(m);
+  dp::bind_fleet(m);
   dp::bind_real_data(m);
   dp::bind_fit(m);
   dp::bind_batch(m);

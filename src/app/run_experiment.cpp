@@ -34,6 +34,7 @@
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/sensors/sensor_suite.hpp"
 #include "dronetwin/world/collision.hpp"
+#include "vehicle_run.hpp"
 
 namespace dronetwin {
 
@@ -97,8 +98,9 @@ class RunObserver final : public LoopObserver {
   RunObserver(const Experiment& e, const ControllerLoopInput* controller_input,
               const ControllerBase& controller, const Simulator& sim, const SensorSuite& sensors,
               const RunSensing* sensing, DepthRecording& depth, CsvLogWriter& log,
-              RunSummary& summary)
+              RunSummary& summary, bool interaction)
       : e_(e),
+        interaction_(interaction),
         input_(controller_input),
         sensors_(sensors),
         sensing_(sensing),
@@ -221,6 +223,11 @@ class RunObserver final : public LoopObserver {
       row_[k++] = a.gamma2_rate_rad_s;
       row_[k++] = sim.payload_tension_N();
     }
+    if (interaction_) {
+      const SimData& d = sim.data();
+      for (int i = 0; i < 3; ++i) row_[k++] = d.interaction_flow_W_m_s[i];
+      for (int i = 0; i < 6; ++i) row_[k++] = d.interaction_wrench_B[i];
+    }
     if (e_.log.wrench_breakdown) {
       const WrenchBreakdown b = sim.wrench_breakdown();
       for (const Wrench<double>& w : b.terms) {
@@ -257,6 +264,7 @@ class RunObserver final : public LoopObserver {
   }
 
   const Experiment& e_;
+  bool interaction_;  // the downwash_* columns (a fleet's vehicle)
   const ControllerLoopInput* input_;
   const SensorSuite& sensors_;
   const RunSensing* sensing_;
@@ -466,67 +474,92 @@ RunSummary run_experiment(const Experiment& e, std::shared_ptr<const VehicleMode
   return run(e, std::move(model), out_dir, overwrite, std::move(hash));
 }
 
-namespace {
+namespace app_detail {
 
-RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
-               const std::string& out_dir, bool overwrite, std::optional<std::string> model_hash) {
-  check_against_model(e, *model);
-  Simulator sim(model, e.sim_config());
+struct VehicleRun::Impl {
+  Impl(const Experiment& experiment, std::shared_ptr<const VehicleModel> m)
+      : e(experiment), model(std::move(m)), sim(model, e.sim_config()) {}
+  Experiment e;
+  std::shared_ptr<const VehicleModel> model;
+  Simulator sim;
+  const ControllerLoopInput* controller_input = nullptr;
+  std::unique_ptr<ControllerBase> controller;
+  std::shared_ptr<const Reference> reference;
+  std::optional<ClosedLoop> loop;
+  std::optional<SensorSuite> sensors;
+  std::optional<RunSensing> sensing;
+  std::optional<OutputFolder> out;
+  RunSummary s;
+  std::optional<CsvLogWriter> log;
+  std::optional<DepthRecording> depth;
+  std::optional<RunObserver> observer;
+  std::chrono::steady_clock::time_point start;
+};
+
+VehicleRun::VehicleRun(const Experiment& experiment, std::shared_ptr<const VehicleModel> model,
+                       const std::string& out_dir, bool overwrite,
+                       std::optional<std::string> model_hash, bool interaction_columns,
+                       std::vector<std::string> more_inputs) {
+  check_against_model(experiment, *model);
+  impl_ = std::make_unique<Impl>(experiment, std::move(model));
+  Impl& r = *impl_;
+  const Experiment& e = r.e;
+  Simulator& sim = r.sim;
+  const std::shared_ptr<const VehicleModel>& m = r.model;
   try {
     sim.reset(e.initial_state.state(),
-              e.initial_state.rotor_speeds.resolve(*model, e.gravity_magnitude()));
+              e.initial_state.rotor_speeds.resolve(*m, e.gravity_magnitude()));
   } catch (const InvalidArgument& err) {
     throw InvalidArgument(e.source + ": initial_state: " + err.what());
   }
   if (e.scene != nullptr) {
     // A start inside an object is a mistake in the files, not a crash to fly into.
     const SceneContact at_start =
-        find_scene_contact(*e.scene, model->collision_shape(), sim.state(), sim.state());
+        find_scene_contact(*e.scene, m->collision_shape(), sim.state(), sim.state());
     require(!at_start, e.source, ": initial_state: the vehicle's collision shape (",
-            collision_kind_name(model->collision_shape().kind), ", ", e.model_path,
-            ") starts inside ", describe_contact(*e.scene, at_start), " of the scene ",
-            e.scene_path);
+            collision_kind_name(m->collision_shape().kind), ", ", e.model_path, ") starts inside ",
+            describe_contact(*e.scene, at_start), " of the scene ", e.scene_path);
     sim.set_scene(e.scene);
   }
-  // Every experiment flies through ClosedLoop::run(): a controller input with its controller
-  // and reference at its rate, an open-loop input as a schedule at the physics rate. Built before
+  // Every experiment flies through a ClosedLoop: a controller input with its controller and
+  // reference at its rate, an open-loop input as a schedule at the physics rate. Built before
   // any file is touched: a bad controller file throws here.
-  const auto* controller_input = std::get_if<ControllerLoopInput>(&e.input);
-  std::unique_ptr<ControllerBase> controller;
-  std::shared_ptr<const Reference> reference;
+  r.controller_input = std::get_if<ControllerLoopInput>(&e.input);
+  const ControllerLoopInput* controller_input = r.controller_input;
   double control_rate_hz = 1.0 / e.sim.dt_s;
   if (controller_input != nullptr) {
     try {
-      controller = load_controller(controller_input->controller_path, model,
-                                   controller_input->control_rate_hz);
+      r.controller =
+          load_controller(controller_input->controller_path, m, controller_input->control_rate_hz);
     } catch (const InvalidArgument& err) {
       throw InvalidArgument(e.source + ": input.controller: " + err.what());
     }
-    if (controller_input->allocation) controller->set_allocation(*controller_input->allocation);
-    reference = controller_input->reference;
+    if (controller_input->allocation) r.controller->set_allocation(*controller_input->allocation);
+    r.reference = controller_input->reference;
     control_rate_hz = controller_input->control_rate_hz;
   } else {
-    controller = std::make_unique<OpenLoopInput>(e, model);
-    reference = std::make_shared<SetpointReference>(Vec3::Zero());
+    r.controller = std::make_unique<OpenLoopInput>(e, m);
+    r.reference = std::make_shared<SetpointReference>(Vec3::Zero());
   }
-  controller->reset();
-  ClosedLoop loop(sim, *controller, *reference, control_rate_hz);
-  std::optional<SensorSuite> sensors;
+  r.controller->reset();
+  r.loop.emplace(sim, *r.controller, *r.reference, control_rate_hz);
+  ClosedLoop& loop = *r.loop;
   try {
-    sensors.emplace(e.sensors, e.sim.dt_s, model->num_rotors(), e.sim.seed);
+    r.sensors.emplace(e.sensors, e.sim.dt_s, m->num_rotors(), e.sim.seed);
   } catch (const InvalidArgument& err) {
     throw InvalidArgument(e.source + ": " + err.what());
   }
   const std::vector<std::string> diagnostic_names =
-      controller_input != nullptr ? controller->diagnostic_names() : std::vector<std::string>{};
-  LogLayout layout{model->num_rotors(),         e.log.measured,       e.log.wrench_breakdown,
-                   controller_input != nullptr, diagnostic_names,     e.sensors,
-                   e.estimation.has_value(),    e.depth_cameras,      e.sim.wind.varies(),
-                   e.sim.battery.enabled,       e.sim.payload.enabled};
-  std::optional<RunSensing> sensing;
+      controller_input != nullptr ? r.controller->diagnostic_names() : std::vector<std::string>{};
+  LogLayout layout{m->num_rotors(),          e.log.measured,
+                   e.log.wrench_breakdown,   controller_input != nullptr,
+                   diagnostic_names,         e.sensors,
+                   e.estimation.has_value(), e.depth_cameras,
+                   e.sim.wind.varies(),      e.sim.battery.enabled,
+                   e.sim.payload.enabled,    interaction_columns};
   if (!e.sensors.empty()) {
-    sensing.emplace(e, sim, *sensors);
-    loop.set_state_source(&*sensing);
+    r.sensing.emplace(e, sim, *r.sensors);
+    loop.set_state_source(&*r.sensing);
   }
   try {
     (void)log_columns(layout);
@@ -541,18 +574,20 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   std::vector<std::string> inputs{e.source, e.model_path};
   if (controller_input != nullptr) inputs.push_back(controller_input->controller_path);
   if (e.scene != nullptr) inputs.push_back(e.scene_path);
+  for (std::string& i : more_inputs) inputs.push_back(std::move(i));
   std::vector<std::string> outputs{"log.csv", "log.json"};
   for (const DepthCameraSpec& c : e.depth_cameras) outputs.push_back(DepthRecording::file_name(c));
   outputs.push_back("summary.json");  // last: its presence marks a finished run
-  OutputFolder out(out_dir, outputs, inputs, overwrite, "run");
+  r.out.emplace(out_dir, outputs, inputs, overwrite, "run");
+  OutputFolder& out = *r.out;
   const fs::path log_path = out.final_path("log.csv");
   const fs::path summary_path = out.final_path("summary.json");
   const fs::path metadata_path = sidecar_path(log_path.string());
 
-  RunSummary s;
+  RunSummary& s = r.s;
   s.experiment_name = e.name;
   s.experiment_path = e.source;
-  s.model_name = model->name();
+  s.model_name = m->name();
   s.model_path = e.model_path;
   s.scene_path = e.scene_path;
   s.seed = e.sim.seed;
@@ -565,55 +600,87 @@ RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
   s.summary_path = summary_path.string();
   s.metadata_path = metadata_path.string();
 
-  LogMetadata metadata = run_metadata(e, *model, std::move(model_hash));
+  LogMetadata metadata = run_metadata(e, *m, std::move(model_hash));
   metadata.columns = log_columns(layout);
-  CsvLogWriter log(out.partial("log.csv").string(), metadata.column_names());
+  r.log.emplace(out.partial("log.csv").string(), metadata.column_names());
   write_log_metadata(metadata, out.partial("log.json").string());
 
-  if (uses_hover_speeds(e) && !model->can_hover(e.gravity_magnitude())) {
+  if (uses_hover_speeds(e) && !m->can_hover(e.gravity_magnitude())) {
     s.warnings.push_back(detail::concat(
-        model->name(), " cannot hover at g = ", e.gravity_magnitude(),
+        m->name(), " cannot hover at g = ", e.gravity_magnitude(),
         " m/s^2 within its rotor speed limits: the experiment's hover rotor speeds are clamped to "
         "the limits and do not hold it still (dronetwin info ",
         e.model_path, ")"));
   }
-  DepthRecording depth(e.depth_cameras, e.sim.seed, e.sim.dt_s, out);
-  RunObserver observer(e, controller_input, *controller, sim, *sensors,
-                       sensing ? &*sensing : nullptr, depth, log, s);
-  const auto start = std::chrono::steady_clock::now();
-  const StepResult result = loop.run(e.duration_s, &observer);
-  log.close();
-  depth.close();
-  for (std::size_t i = 0; i < depth.size(); ++i) {
-    const DepthCameraParameters& p = depth.spec(i).parameters;
-    s.depth_frames.push_back({depth.spec(i).name,
-                              out.final_path(DepthRecording::file_name(depth.spec(i))).string(),
-                              depth.frames(i), p.height_px, p.width_px});
+  r.depth.emplace(e.depth_cameras, e.sim.seed, e.sim.dt_s, out);
+  r.observer.emplace(e, controller_input, *r.controller, sim, *r.sensors,
+                     r.sensing ? &*r.sensing : nullptr, *r.depth, *r.log, s, interaction_columns);
+  r.start = std::chrono::steady_clock::now();
+}
+
+VehicleRun::~VehicleRun() = default;
+
+Simulator& VehicleRun::simulator() { return impl_->sim; }
+ClosedLoop& VehicleRun::loop() { return *impl_->loop; }
+LoopObserver& VehicleRun::observer() { return *impl_->observer; }
+const Experiment& VehicleRun::experiment() const { return impl_->e; }
+
+StepResult VehicleRun::fly() { return impl_->loop->run(impl_->e.duration_s, &*impl_->observer); }
+
+RunSummary VehicleRun::finish(const StepResult& result, const std::string& collided_with) {
+  Impl& r = *impl_;
+  const Experiment& e = r.e;
+  Simulator& sim = r.sim;
+  ClosedLoop& loop = *r.loop;
+  RunSummary& s = r.s;
+  r.log->close();
+  r.depth->close();
+  for (std::size_t i = 0; i < r.depth->size(); ++i) {
+    const DepthCameraParameters& p = r.depth->spec(i).parameters;
+    s.depth_frames.push_back(
+        {r.depth->spec(i).name,
+         r.out->final_path(DepthRecording::file_name(r.depth->spec(i))).string(),
+         r.depth->frames(i), p.height_px, p.width_px});
   }
   const double wall_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - r.start).count();
 
   s.steps = sim.step_count();
   s.duration_s = sim.time_s();
   s.status = result.status;
   s.failure_message = result.status == StepStatus::kControllerFailed ? loop.failure_message()
                                                                      : sim.failure_message();
-  if (controller_input != nullptr) s.closed_loop = observer.closed_loop_summary(loop);
-  s.estimation = observer.estimation_summary();
+  if (r.controller_input != nullptr) s.closed_loop = r.observer->closed_loop_summary(loop);
+  s.estimation = r.observer->estimation_summary();
   s.final_time_s = sim.time_s();
   s.final_state = sim.state();
   s.final_rotor_speeds_rad_s = sim.rotor_speeds_rad_s();
   s.crashed = sim.contact().crashed;
-  if (result.status == StepStatus::kCollided)
+  if (!collided_with.empty()) {
+    s.collided_with = collided_with;
+    s.failure_message = "touched " + collided_with;
+  } else if (result.status == StepStatus::kCollided) {
     s.collided_with = describe_contact(*e.scene, sim.data().failure.contact);
+  }
   s.touchdowns = sim.contact().touchdowns;
   s.max_touchdown_speed_m_s = sim.contact().max_touchdown_speed_m_s;
-  s.log_rows = static_cast<std::int64_t>(log.rows_written());
+  s.log_rows = static_cast<std::int64_t>(r.log->rows_written());
   s.wall_clock_s = wall_s;
   s.real_time_factor = wall_s > 0.0 ? s.duration_s / wall_s : 0.0;
-  write_text_file(out.partial("summary.json"), summary_to_json(s));
-  out.commit();
+  write_text_file(r.out->partial("summary.json"), summary_to_json(s));
+  r.out->commit();
   return s;
+}
+
+}  // namespace app_detail
+
+namespace {
+
+RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
+               const std::string& out_dir, bool overwrite, std::optional<std::string> model_hash) {
+  app_detail::VehicleRun run(e, std::move(model), out_dir, overwrite, std::move(model_hash));
+  const StepResult result = run.fly();
+  return run.finish(result);
 }
 
 }  // namespace

@@ -30,9 +30,11 @@
 #include <filesystem>
 
 #include "dronetwin/app/run_experiment.hpp"
+#include "dronetwin/app/run_fleet.hpp"
 #include "dronetwin/config/experiment.hpp"
 #include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/logging/text_file.hpp"
 #include "fit_command.hpp"
 #include "real_data_commands.hpp"
 
@@ -130,8 +132,46 @@ void print_summary(const RunSummary& s) {
               << d.width_px << " float32, m)\n";
 }
 
+/// `run` of a fleet file (a top-level `vehicles:` list): each vehicle into its own folder.
+int run_fleet_command(const RunOptions& o, const std::string& text) {
+  require(!o.seed_given,
+          "--seed: a fleet file's vehicles each take the seed of their own "
+          "experiment file; set it there");
+  require(!o.real_time, "--real-time: a fleet steps as fast as it can; not for fleet files");
+  FleetExperiment f = parse_fleet_experiment(text, o.experiment);
+  if (o.duration_given) {
+    require(std::isfinite(o.duration_s) && o.duration_s > 0.0,
+            "--duration: expected a number of seconds > 0, got ", o.duration_s);
+    f.duration_s = o.duration_s;
+    for (FleetVehicleSpec& v : f.vehicles) v.experiment.duration_s = o.duration_s;
+  }
+  const FleetRunSummary s = run_fleet_experiment(f, o.out_dir, o.force);
+  if (!o.quiet) {
+    std::cout << s.experiment_name << ": " << status_name(s.status) << ", " << s.steps << " of "
+              << s.steps_requested << " lockstep steps (" << s.duration_s << " s simulated) in "
+              << fixed(s.wall_clock_s, 3) << " s wall clock, downwash "
+              << (s.downwash.enabled ? "on" : "off") << "\n";
+    for (const FleetVehicleSummary& v : s.vehicles) {
+      std::cout << "  " << v.name << ": " << status_name(v.run.status) << ", log "
+                << v.run.log_path;
+      if (v.run.closed_loop)
+        std::cout << ", RMSE xyz " << vec(v.run.closed_loop->rmse.head<3>(), 4) << " m";
+      std::cout << ", max wake " << fixed(v.max_downwash_flow_m_s, 3) << " m/s, max thrust loss "
+                << fixed(v.max_thrust_loss_N, 3) << " N\n";
+    }
+  }
+  if (!s.ok()) {
+    std::cerr << "error: run " << status_name(s.status) << ": " << s.failure_message
+              << " (logs and summaries written to " << o.out_dir << ")\n";
+    return kExitRunFailed;
+  }
+  return kExitOk;
+}
+
 int run_command(const RunOptions& o) {
-  Experiment e = load_experiment(o.experiment);
+  const std::string text = read_text_file(o.experiment, "experiment file");
+  if (looks_like_fleet_experiment(text)) return run_fleet_command(o, text);
+  Experiment e = parse_experiment(text, o.experiment);
   if (o.seed_given) {
     // Parsed here, not by CLI11, whose unsigned conversion wraps "-1" around to 2^64 - 1.
     std::uint64_t seed = 0;

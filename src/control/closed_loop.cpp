@@ -101,6 +101,11 @@ bool ClosedLoop::guarded_update(StepResult& result) {
   return false;
 }
 
+bool ClosedLoop::try_update() {
+  StepResult ignored;
+  return guarded_update(ignored);
+}
+
 StepResult ClosedLoop::run(double duration_s, LoopObserver* observer) {
   const std::int64_t n = steps_for(duration_s, sim_.config().dt_s);
   // One thread flies the loop: another one resetting the simulator or calling the controller

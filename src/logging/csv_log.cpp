@@ -108,6 +108,18 @@ std::vector<LogColumn> log_columns(const LogLayout& layout) {
     c.push_back({"swing_rate_2", "rad/s", "rate of swing_2"});
     c.push_back({"tension", "N", "cable tension at t (0 while slack)"});
   }
+  if (layout.downwash) {
+    for (const char* axis : kAxes)
+      c.push_back({std::string("downwash_flow_") + axis, "m/s",
+                   std::string("other vehicles' wake at the centre of mass, world ") + axis +
+                       " axis, of the step that reached t (added to its wind)"});
+    for (const char* axis : kAxes)
+      c.push_back({std::string("downwash_force_") + axis, "N",
+                   std::string("rotor thrust change in the wake, body ") + axis + " axis"});
+    for (const char* axis : kAxes)
+      c.push_back({std::string("downwash_moment_") + axis, "N m",
+                   std::string("moment of the thrust change, body ") + axis + " axis"});
+  }
   if (layout.wrench_breakdown) {
     for (int k = 0; k < kNumTerms; ++k) {
       const std::string term(term_name(static_cast<Term>(k)));

@@ -237,6 +237,8 @@ void Simulator::reset(const StateVector& state, const RotorVector& rotor_speeds_
   if (config_.ground.enabled && data_.state[state_index::kPosition + 2] <= 0.0) {
     data_.contact.in_contact = true;
   }
+  data_.interaction_flow_W_m_s.setZero();
+  data_.interaction_wrench_B.setZero();
   data_.status = StepStatus::kOk;
   data_.failure = StepFailure{};
   update_wind();
@@ -271,13 +273,30 @@ void Simulator::refresh_measured_state() {
   update_wind();
 }
 
+void Simulator::set_interaction(const Vec3& flow_W_m_s, const Vector6<double>& wrench_B) {
+  const SingleThreadGuard::Hold hold(guard_, "Simulator::set_interaction");
+  require(flow_W_m_s.allFinite(), "set_interaction: flow: expected finite numbers, got [",
+          flow_W_m_s.transpose(), "] m/s");
+  require(wrench_B.allFinite(), "set_interaction: wrench: expected finite numbers, got [",
+          wrench_B.transpose(), "]");
+  data_.interaction_flow_W_m_s = flow_W_m_s;
+  data_.interaction_wrench_B = wrench_B;
+  update_wind();
+}
+
+void Simulator::prepare_held(const ForceKernel<double>& kernel,
+                             HeldRotorTerms<double>& held) const {
+  kernel.prepare(data_.rotor_speed_rad_s, held);
+  held.constant += data_.interaction_wrench_B;
+}
+
 void Simulator::update_wind() {
   const Vec3& mean_ref = config_.environment.wind_W_m_s;
   const WindSettings& w = config_.wind;
   const double height_m = data_.state[state_index::kPosition + 2];
   // A state written through mutable_data() may be non-finite; the next step reports it.
   if (!w.varies() || !std::isfinite(height_m)) {
-    data_.wind_W_m_s = mean_ref;
+    data_.wind_W_m_s = mean_ref + data_.interaction_flow_W_m_s;
     return;
   }
   const Vec3 mean = mean_wind_at(mean_ref, w.shear, height_m);
@@ -286,7 +305,7 @@ void Simulator::update_wind() {
     data_.turbulence_scales = dryden_low_altitude(height_m, w.turbulence.wind_at_20ft_m_s);
     wind += turbulence_axes(mean) * dryden_gust(data_.turbulence, data_.turbulence_scales);
   }
-  data_.wind_W_m_s = wind;
+  data_.wind_W_m_s = wind + data_.interaction_flow_W_m_s;
 }
 
 void Simulator::update_measured_state() {
@@ -474,11 +493,20 @@ StepResult Simulator::step_unchecked() {
   }
   // Rotor speeds are held over the step: do their part of the force model once.
   PayloadState payload = data_.payload;
-  StateVector next = config_.payload.enabled
-                         ? step_with_payload(payload)
-                         : held_rotor_step(active_kernel(data_.time_s), config_.integrator,
-                                           data_.state, data_.rotor_speed_rad_s, data_.wind_W_m_s,
-                                           config_.environment.gravity_W_m_s2, config_.dt_s);
+  StateVector next;
+  if (config_.payload.enabled) {
+    next = step_with_payload(payload);
+  } else {
+    // held_rotor_step() of the force kernel, with the other vehicles' wrench added to the held
+    // one (zero without them).
+    const ForceKernel<double>& kernel = active_kernel(data_.time_s);
+    prepare_held(kernel, held_);
+    const Vec3& g = config_.environment.gravity_W_m_s2;
+    next = integrate_step(config_.integrator, data_.state, config_.dt_s, [&](const StateVector& y) {
+      return kernel.derivative(held_, y, data_.wind_W_m_s, g);
+    });
+    normalize_quaternion(next);
+  }
   // Contact is resolved on a copy: a refused step must not change it (nor anything else).
   ContactState contact = data_.contact;
   resolve_ground_contact(config_.ground, data_.state, config_.dt_s, next, contact);
@@ -614,7 +642,7 @@ StateVector Simulator::step_with_payload(PayloadState& payload) {
   using namespace state_index;
   using Augmented = Eigen::Matrix<double, kStateSize + 6, 1>;
   const ForceKernel<double>& kernel = active_kernel(data_.time_s);
-  kernel.prepare(data_.rotor_speed_rad_s, held_);
+  prepare_held(kernel, held_);
   bool pulling = false;
   (void)payload_coupling_now(kernel, held_, payload, pulling);
   const SlungPayload& p = config_.payload.payload;
@@ -658,7 +686,7 @@ double Simulator::payload_tension_N() const {
   if (!config_.payload.enabled) return 0.0;
   HeldRotorTerms<double> held;
   const ForceKernel<double>& kernel = active_kernel(data_.time_s);
-  kernel.prepare(data_.rotor_speed_rad_s, held);
+  prepare_held(kernel, held);
   PayloadState payload = data_.payload;
   bool pulling = false;
   return payload_coupling_now(kernel, held, payload, pulling).tension_N;
@@ -697,7 +725,7 @@ void Simulator::set_payload_state(const PayloadState& payload) {
 StateVector Simulator::state_derivative() const {
   HeldRotorTerms<double> held;
   const ForceKernel<double>& kernel = active_kernel(data_.time_s);
-  kernel.prepare(data_.rotor_speed_rad_s, held);
+  prepare_held(kernel, held);
   StateVector xdot =
       kernel.derivative(held, data_.state, data_.wind_W_m_s, config_.environment.gravity_W_m_s2);
   if (config_.payload.enabled) {

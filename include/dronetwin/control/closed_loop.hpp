@@ -88,6 +88,9 @@ class ClosedLoop {
   /// is a control instant (a multiple of steps_per_control()) and the controller has not yet run
   /// at this step count. Returns true if it ran. Idempotent between two steps.
   bool update();
+  /// update() for code that steps the loop itself (a Fleet): a controller that throws returns
+  /// false, its message in failure_message(), as in run().
+  bool try_update();
   /// One physics step: update(), Simulator::step(), then real-time pacing if enabled.
   StepResult step();
   /// Steps until `duration_s` of simulated time has passed (steps_for(duration_s, dt) steps) or

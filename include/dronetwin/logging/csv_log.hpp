@@ -15,7 +15,8 @@
 // omega_ref_0..omega_ref_{N-1} (references), [meas_x .. meas_wz (measured state)], in_contact,
 // crashed, [wind_x, wind_y, wind_z (air velocity at the vehicle, world frame)], [battery_soc,
 // battery_voltage, battery_current (the pack after the step that reached t)], [payload_x ..
-// payload_vz, swing_1, swing_2, swing_rate_1, swing_rate_2, tension (slung payload)], [F_<term>_x,
+// payload_vz, swing_1, swing_2, swing_rate_1, swing_rate_2, tension (slung payload)],
+// [downwash_flow_x .. downwash_moment_z (a fleet's vehicle: other vehicles' wakes)], [F_<term>_x,
 // F_<term>_y, F_<term>_z, M_<term>_x, M_<term>_y, M_<term>_z for each term, body frame],
 // [<sensor>_t, <sensor>_<channel> for each sensor (its latest delivered reading)], [est_x .. est_wz
 // (the EKF's estimate)], [ref_x, ref_y, ref_z, ref_yaw, u_T, u_tau_x, u_tau_y, u_tau_z, saturated
@@ -68,6 +69,10 @@ struct LogLayout {
   /// payload_x .. payload_vz, swing_1, swing_2, swing_rate_1, swing_rate_2, tension after the
   /// battery columns (with a slung payload).
   bool payload = false;
+  /// downwash_flow_x/y/z (world, m/s), downwash_force_x/y/z (body, N) and downwash_moment_x/y/z
+  /// (body, N m) after the payload columns: what other vehicles' wakes did to this one over
+  /// the step that reached t (a fleet's vehicle, Simulator::set_interaction).
+  bool downwash = false;
 };
 
 /// One column of a log: its header name, its unit ("s", "m", "m/s", "1" (dimensionless, e.g. a

@@ -46,6 +46,10 @@
 // the cable is settled (length l kept, a slack cable jerking taut) and a payload reaching the
 // ground stops on it. reset() hangs it at rest below the vehicle.
 //
+// Other vehicles (fleet/fleet.hpp): set_interaction() adds an air velocity to the wind and a
+// wrench to the rotors', held over the following steps; a Fleet sets both from the others' wakes
+// before every step.
+//
 // Scene: with set_scene() a step whose motion brings the model's collision shape into a gate's
 // frame or an obstacle (world/collision.hpp) is refused like a diverged one, with status
 // kCollided and a failure_message() naming the object.
@@ -160,6 +164,11 @@ struct SimData {
   BatteryState battery;
   /// The slung payload (SimConfig::payload; unused when it is off).
   PayloadState payload;
+  /// What other vehicles do to this one (set_interaction; a Fleet's downwash): an air velocity
+  /// added to the wind, world frame, m/s, and a body wrench [F_B; M_B] added to the rotors' held
+  /// one, both held until set again; zero after reset.
+  Vec3 interaction_flow_W_m_s = Vec3::Zero();
+  Vector6<double> interaction_wrench_B = Vector6<double>::Zero();
   ContactState contact;
   StepStatus status = StepStatus::kOk;
   StepFailure failure;
@@ -263,8 +272,14 @@ class Simulator {
   double payload_tension_N() const;
   /// Eq. 3.33's swing angles and their rates now.
   SwingAngles swing_angles() const;
-  /// The air velocity at the vehicle now (SimData::wind_W_m_s), world frame, m/s.
+  /// The air velocity at the vehicle now (SimData::wind_W_m_s), world frame, m/s: the wind and
+  /// the interaction's flow.
   const Vec3& wind_W_m_s() const { return data_.wind_W_m_s; }
+  /// Other vehicles' influence from the next step on, until set again (reset() clears it): an
+  /// air velocity added to the wind (world frame, m/s) and a body wrench [F_B (N); M_B (N m)]
+  /// about the centre of mass added to the rotors' (dynamics/downwash.hpp computes both).
+  /// InvalidArgument when not finite. Not in wrench_breakdown().
+  void set_interaction(const Vec3& flow_W_m_s, const Vector6<double>& wrench_B);
   void set_disturbances(const DisturbanceSwitches& switches);
   void set_noise_enabled(bool enabled);
   /// Gates and obstacles the vehicle may not touch (null: none, the default). Kept over reset();
@@ -288,6 +303,8 @@ class Simulator {
   StepResult step_unchecked();
   void update_measured_state();
   void update_wind();
+  /// kernel.prepare() for the current rotor speeds, plus the interaction's wrench.
+  void prepare_held(const ForceKernel<double>& kernel, HeldRotorTerms<double>& held) const;
   void build_fault_forces();
   /// One RK4 step of the vehicle and the payload together (SimConfig::payload on): the vehicle's
   /// next state; the payload's next state in `payload`.
