@@ -6,6 +6,8 @@
 // BM_*Se3: the SE(3) controller and the thrust-first allocation before every physics step
 // (BatchSe3Controller), each lane holding its own setpoint, no restarts needed.
 // BM_*WindField: shear, a gust and moderate Dryden turbulence (a per-lane scalar pass per step).
+// BM_*Faults: a rotor at 90 % thrust from 0.5 s and a stuck rotor from 1 s after each lane's
+// reset (the per-lane fault clock, a kernel rebuild when a lane's fault begins).
 //
 // "steps per call" 1 is an RL loop that acts every physics step; 10 is a 100 Hz policy over a
 // 1 kHz physics (the pack stays in registers for the 10 steps).
@@ -22,7 +24,7 @@ namespace {
 
 using namespace dronetwin;
 
-enum class Mode { kOpenLoop, kNoise, kSe3, kWindField };
+enum class Mode { kOpenLoop, kNoise, kSe3, kWindField, kFaults };
 
 template <class T>
 void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
@@ -39,6 +41,11 @@ void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
     cfg.wind.gusts[0] = {0.0, 10.0, Vec3(0.0, 1.0, 0.0)};
     cfg.wind.num_gusts = 1;
     cfg.wind.turbulence = TurbulenceSettings::of(TurbulenceSeverity::kModerate);
+  }
+  if (mode == Mode::kFaults) {
+    cfg.faults.rotor[0] = RotorFault{RotorFaultKind::kEffectiveness, 0, 0.5, 0.9};
+    cfg.faults.rotor[1] = RotorFault{RotorFaultKind::kStuck, 1, 1.0, 1.0};
+    cfg.faults.num_rotor_faults = 2;
   }
   BatchSimulator<T> batch(model, cfg, n, threads);
   Se3Options options;
@@ -94,6 +101,7 @@ void BM_BatchFloatNoise(benchmark::State& s) { run<float>(s, Mode::kNoise); }
 void BM_BatchDoubleSe3(benchmark::State& s) { run<double>(s, Mode::kSe3); }
 void BM_BatchDoubleWindField(benchmark::State& s) { run<double>(s, Mode::kWindField); }
 void BM_BatchFloatSe3(benchmark::State& s) { run<float>(s, Mode::kSe3); }
+void BM_BatchDoubleFaults(benchmark::State& s) { run<double>(s, Mode::kFaults); }
 
 void sizes(benchmark::internal::Benchmark* b) {
   b->ArgNames({"N", "steps", "threads"});
@@ -110,6 +118,7 @@ BENCHMARK(BM_BatchFloatNoise)->Apply(sizes);
 BENCHMARK(BM_BatchDoubleSe3)->Apply(sizes);
 BENCHMARK(BM_BatchFloatSe3)->Apply(sizes);
 BENCHMARK(BM_BatchDoubleWindField)->Apply(sizes);
+BENCHMARK(BM_BatchDoubleFaults)->Apply(sizes);
 
 }  // namespace
 

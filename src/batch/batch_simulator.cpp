@@ -1,5 +1,6 @@
 #include "dronetwin/batch/batch_simulator.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -121,9 +122,6 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
     : model_(std::move(model)), config_(std::move(config)) {
   require(model_ != nullptr, "BatchSimulator: model is null");
   validate(config_);
-  require(!config_.faults.any(),
-          "BatchSimulator: rotor faults (the config's `faults:`) are flown by Simulator only; "
-          "remove them, or vary a lane's thrust with set_parameter()");
   require(!config_.battery.enabled,
           "BatchSimulator: the battery (the config's `battery:`) is flown by Simulator only; "
           "set battery.enabled = false");
@@ -156,6 +154,26 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
     turbulence_.resize(n);
     turbulence_rng_.resize(n);
     for (std::size_t l = 0; l < n; ++l) restart_turbulence(l);
+  }
+  fault_active_.assign(n, 0);
+  fault_stage_.assign(n, 0);
+  if (config_.faults.any()) {
+    stuck_speed_ = AlignedArray<T>(n * kMaxRotors);
+    const FaultSettings& f = config_.faults;
+    for (int j = 0; j < f.num_rotor_faults; ++j) {
+      require(f.rotor[static_cast<std::size_t>(j)].rotor < model_->num_rotors(),
+              "BatchSimulator: faults[", j, "].rotor: expected 0 .. ", model_->num_rotors() - 1,
+              " (rotors of ", model_->name(), "), got ",
+              f.rotor[static_cast<std::size_t>(j)].rotor);
+      if (f.rotor[static_cast<std::size_t>(j)].kind == RotorFaultKind::kEffectiveness)
+        effectiveness_order_.push_back(j);
+    }
+    // By start, ties in file order: the order in which Simulator::build_fault_forces scales them.
+    std::sort(effectiveness_order_.begin(), effectiveness_order_.end(), [&](int a, int b) {
+      const double sa = f.rotor[static_cast<std::size_t>(a)].start_s;
+      const double sb = f.rotor[static_cast<std::size_t>(b)].start_s;
+      return sa < sb || (sa == sb && a < b);
+    });
   }
   if (config_.noise.enabled) {
     noise_ = AlignedArray<T>(n * kStateSize);
@@ -257,6 +275,12 @@ void BatchSimulator<T>::rebuild_pack(int pack) {
       if (v != nominal_[static_cast<std::size_t>(p)])
         set_parameter_value(q, static_cast<ModelParameter>(p), v);
     }
+    // The lost-effectiveness faults acting on the lane, scaled in the Simulator's order.
+    for (std::size_t k = 0; k < fault_stage_[lane]; ++k) {
+      const RotorFault& f = config_.faults.rotor[static_cast<std::size_t>(effectiveness_order_[k])];
+      for (double& c : q.rotors[static_cast<std::size_t>(f.rotor)].thrust_coefficients)
+        c *= f.effectiveness;
+    }
   }
   kernels_[static_cast<std::size_t>(pack)] = ForceKernel<Lanes>(zip_lanes<Lanes>(lanes), terms_);
   MotorDecay& d = decays_[static_cast<std::size_t>(pack)];
@@ -341,6 +365,13 @@ void BatchSimulator<T>::reset(int lane, const StateVector& state,
   status_[l] = static_cast<std::uint8_t>(StepStatus::kOk);
   step_count_[l] = 0;
   restart_turbulence(l);
+  // The faults begin again on the lane's new clock.
+  fault_active_[l] = 0;
+  if (fault_stage_[l] != 0) {
+    fault_stage_[l] = 0;
+    pack_dirty_[l / static_cast<std::size_t>(kLanes)] = 1;
+    any_dirty_ = true;
+  }
 }
 
 template <class T>
@@ -450,7 +481,8 @@ int BatchSimulator<T>::run_steps(std::int64_t n, BatchInnerLoop<T>* inner_loop) 
     // hand-out cheap.
     constexpr int kPacksPerTask = 4;
     const int tasks = (num_packs_ + kPacksPerTask - 1) / kPacksPerTask;
-    const bool extras = inner_loop != nullptr || config_.noise.enabled || config_.wind.varies();
+    const bool extras = inner_loop != nullptr || config_.noise.enabled || config_.wind.varies() ||
+                        config_.faults.any();
     pool_->run(tasks, [this, n, inner_loop, extras](int task) {
       const int end = std::min(num_packs_, (task + 1) * kPacksPerTask);
       for (int c = task * kPacksPerTask; c < end; ++c) {
@@ -643,8 +675,33 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
   if (noise && wants_derivative)
     for (int k = 0; k < kStateSize; ++k) yd[k] = load<P>(&derivative_noise_[k * stride + base]);
 
+  // Rotor faults: the faults acting on each lane's step (its own clock), as
+  // FaultSettings::active_at(time of the step's start).
+  const FaultSettings& faults = config_.faults;
+  const bool has_faults = kExtras && faults.any();
+  std::array<std::uint32_t, kLanes> active{};
+
   for (std::int64_t s = 0; s < n; ++s) {
     if (stdx::none_of(running)) break;
+    if (has_faults) {
+      bool restage = false;
+      for (int l = 0; l < kLanes; ++l) {
+        if (!running[l]) continue;
+        const auto li = static_cast<std::size_t>(l);
+        const double t = static_cast<double>(step_count_[base + li] + s) * config_.dt_s;
+        active[li] = faults.active_at(t, config_.dt_s);
+        // Those acting are a prefix of the start order (Simulator::effectiveness_stage).
+        std::uint8_t stage = 0;
+        for (const int j : effectiveness_order_)
+          stage = static_cast<std::uint8_t>(stage + ((active[li] >> j) & 1u));
+        if (stage != fault_stage_[base + li]) {
+          fault_stage_[base + li] = stage;
+          restage = true;
+        }
+      }
+      // In place: `kernel` refers to this pack's entry; no other thread touches the pack.
+      if (restage) rebuild_pack(pack);
+    }
     // Wind field: each running lane's air velocity for this step (the inner loop's state
     // derivative included) from its mean wind (the wind array), height, time and turbulence,
     // lane by lane in double (Simulator::update_wind).
@@ -746,17 +803,44 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
         in_contact[l] = contact_[base + l].in_contact;
       }
     }
+    // Motor faults, per rotor: lanes whose rotor is stopped (reference zero) or stuck (speed
+    // held at what it was when the fault began, recorded at that step, whose forces used it).
+    std::array<M, kMaxRotors> stopped{}, stuck{};
+    if (has_faults) {
+      for (int j = 0; j < faults.num_rotor_faults; ++j) {
+        const RotorFault& f = faults.rotor[static_cast<std::size_t>(j)];
+        if (f.kind == RotorFaultKind::kEffectiveness) continue;
+        const auto r = static_cast<std::size_t>(f.rotor);
+        const M on =
+            commit && mask_of([&](std::size_t l) { return ((active[l - base] >> j) & 1u) != 0; });
+        if (f.kind == RotorFaultKind::kStop) {
+          stopped[r] = stopped[r] || on;
+          continue;
+        }
+        stuck[r] = stuck[r] || on;
+        for (int l = 0; l < kLanes; ++l)
+          if (on[l] && ((fault_active_[base + l] >> j) & 1u) == 0)
+            stuck_speed_[r * stride + base + l] = speed[r][l];
+      }
+    }
     // Motors (Eq. 2.45), after the step as in the Simulator.
     for (int i = 0; i < nr; ++i) {
       const auto r = static_cast<std::size_t>(i);
       const RotorParams& rotor = model_->rotor(i);
-      const P ref = scalar::clamp(reference[r], P(static_cast<T>(rotor.min_speed_rad_s)),
+      P target = reference[r];
+      if (has_faults) stdx::where(stopped[r], target) = P(T(0));
+      const P ref = scalar::clamp(target, P(static_cast<T>(rotor.min_speed_rad_s)),
                                   P(static_cast<T>(rotor.max_speed_rad_s)));
       const P w = config_.motor_dynamics
                       ? motor_speed_after(decay.rise[r], decay.fall[r], ref, speed[r])
                       : ref;
       stdx::where(commit, speed[r]) = w;
+      if (has_faults && stdx::any_of(stuck[r]))
+        stdx::where(stuck[r], speed[r]) = load<P>(&stuck_speed_[r * stride + base]);
     }
+    if (has_faults)
+      for (int l = 0; l < kLanes; ++l)
+        if (commit[l]) fault_active_[base + l] = active[static_cast<std::size_t>(l)];
     if (noise) {
       advance_noise(y, s, 0, commit);
       if (wants_derivative) advance_noise(yd, s, 16, commit);

@@ -31,6 +31,9 @@
 namespace dronetwin {
 namespace {
 
+using io_detail::read_nonnegative;
+using io_detail::switchable_section;
+
 namespace fs = std::filesystem;
 
 using io_detail::child_path;
@@ -108,7 +111,7 @@ const Names kSensorTypes(kSensorTypeNames.begin(), kSensorTypeNames.end());
 static_assert(kSensorTypeNames.size() == std::variant_size_v<SensorParameters>,
               "a new sensor type needs its keys in kSensorKeys and a branch in read_sensor()");
 Names sensor_keys(std::initializer_list<std::string_view> own) {
-  Names keys = {"type", "name", "rate_hz", "latency_s", "mounting"};
+  Names keys = {"type", "name", "rate_hz", "latency_s", "mounting", "faults"};
   keys.insert(keys.end(), own);
   return keys;
 }
@@ -123,6 +126,8 @@ const std::array<Names, 8> kSensorKeys = {
     sensor_keys({"noise_rad_s", "min_distance_m", "max_distance_m"}),
     sensor_keys({"noise_rad_s"})};
 const Names kMountingKeys = {"position_m", "rpy_deg"};
+const Names kSensorFaultKeys = {"type", "start_s", "end_s", "channel", "value"};
+const Names kSensorFaultTypes(kSensorFaultNames.begin(), kSensorFaultNames.end());
 // A depth camera is a `sensors:` item too, but not a SensorSuite sensor (it writes frames).
 constexpr std::string_view kDepthCameraType = "depth_camera";
 const Names kDepthCameraKeys = {"type",
@@ -326,20 +331,6 @@ FaultSettings read_faults(const Reader& rd, const YAML::Node& node, const std::s
   return f;
 }
 
-/// A section that is true, false or a map of settings with an optional `enabled` (default true):
-/// sets `enabled` and returns the map when it is one.
-std::optional<Map> switchable_section(const Reader& rd, const YAML::Node& node,
-                                      const std::string& path, const Names& keys,
-                                      const std::string& expected, bool& enabled) {
-  if (node.IsScalar()) {
-    enabled = rd.boolean(node, path);
-    return std::nullopt;
-  }
-  Map m = rd.map(node, path, keys, expected);
-  enabled = m.has("enabled") ? rd.boolean(m.get("enabled"), m.path("enabled")) : true;
-  return m;
-}
-
 /// `payload:` (docs/payload.md): true, false or a map of payload settings over the defaults.
 PayloadSettings read_payload(const Reader& rd, const YAML::Node& node, const std::string& path) {
   PayloadSettings settings;
@@ -520,15 +511,6 @@ std::size_t read_type(const Reader& rd, const YAML::Node& node, const std::strin
 
 double read_yaw(const Reader& rd, const Map& m) {
   return m.has("yaw_rad") ? rd.number(m.get("yaw_rad"), m.path("yaw_rad")) : 0.0;
-}
-
-double read_nonnegative(const Reader& rd, const Map& m, std::string_view key, double fallback,
-                        const std::string& what) {
-  if (!m.has(key)) return fallback;
-  const YAML::Node n = m.get(key);
-  const double v = rd.number(n, m.path(key));
-  if (v < 0.0) rd.fail(n, m.path(key), "expected " + what + " >= 0, got " + n.Scalar());
-  return v;
 }
 
 /// One item of a reference's list of segments or waypoints.
@@ -801,6 +783,39 @@ void read_mounting(const Reader& rd, const YAML::Node& node, const std::string& 
   }
 }
 
+/// A sensor's `faults:` (docs/faults.md): a list of {type: dropout, start_s[, end_s]} and
+/// {type: bias_step, start_s[, end_s], channel, value}; validate() checks the values.
+std::vector<SensorFault> read_sensor_faults(const Reader& rd, const YAML::Node& node,
+                                            const std::string& path) {
+  if (!node.IsSequence() || node.size() > kMaxSensorFaults)
+    rd.fail(node, path,
+            detail::concat("expected a list of at most ", kMaxSensorFaults,
+                           " faults ({type: dropout, start_s, end_s} or {type: bias_step, "
+                           "start_s, end_s, channel, value})"));
+  std::vector<SensorFault> faults(node.size());
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    const std::string item = detail::concat(path, "[", i, "]");
+    const Map m = rd.map(node[i], item, kSensorFaultKeys,
+                         "a map {type, start_s, end_s} (dropout) or {type, start_s, end_s, "
+                         "channel, value} (bias_step)");
+    SensorFault& f = faults[i];
+    f.kind = static_cast<SensorFaultKind>(
+        rd.choice(m.required("type"), m.path("type"), kSensorFaultTypes, "sensor fault type"));
+    f.start_s = rd.number(m.required("start_s"), m.path("start_s"));
+    if (m.has("end_s")) f.end_s = rd.number(m.get("end_s"), m.path("end_s"));
+    if (f.kind == SensorFaultKind::kBiasStep) {
+      f.channel = rd.string(m.required("channel"), m.path("channel"));
+      f.value = rd.number(m.required("value"), m.path("value"));
+    } else {
+      for (const std::string_view key : {"channel", "value"})
+        if (m.has(key))
+          rd.fail(m.get(key), m.path(key),
+                  "only a bias_step has a channel and a value (a dropout loses whole samples)");
+    }
+  }
+  return faults;
+}
+
 /// The node of `field` ("gyro.noise_density", "position_noise_m[1]") inside `at` (a sensor map),
 /// or the deepest node on its way that the file has (the sensor itself when the value is a
 /// default): where a message about the field points. Recursive, since assigning a YAML::Node
@@ -872,6 +887,7 @@ SensorSpec read_sensor(const Reader& rd, const YAML::Node& node, const std::stri
   read_number(rd, m, "rate_hz", s.rate_hz);
   read_number(rd, m, "latency_s", s.latency_s);
   if (m.has("mounting")) read_mounting(rd, m.get("mounting"), m.path("mounting"), s.mounting);
+  if (m.has("faults")) s.faults = read_sensor_faults(rd, m.get("faults"), m.path("faults"));
   switch (type) {
     case 0: {
       auto& p = std::get<ImuParameters>(s.parameters);
@@ -1170,6 +1186,27 @@ Overloaded(Fs...) -> Overloaded<Fs...>;
 }  // namespace
 
 namespace io_detail {
+
+std::optional<Map> switchable_section(const Reader& rd, const YAML::Node& node,
+                                      const std::string& path, NameList keys,
+                                      const std::string& expected, bool& enabled) {
+  if (node.IsScalar()) {
+    enabled = rd.boolean(node, path);
+    return std::nullopt;
+  }
+  Map m = rd.map(node, path, keys, expected);
+  enabled = m.has("enabled") ? rd.boolean(m.get("enabled"), m.path("enabled")) : true;
+  return m;
+}
+
+double read_nonnegative(const Reader& rd, const Map& m, std::string_view key, double fallback,
+                        const std::string& what) {
+  if (!m.has(key)) return fallback;
+  const YAML::Node n = m.get(key);
+  const double v = rd.number(n, m.path(key));
+  if (v < 0.0) rd.fail(n, m.path(key), "expected " + what + " >= 0, got " + n.Scalar());
+  return v;
+}
 
 std::vector<SensorSpec> read_sensor_list(const Reader& rd, const YAML::Node& node,
                                          const std::string& path, double dt_s,

@@ -1,9 +1,10 @@
 #pragma once
 // The parts of an experiment file that other file formats share (src/config only): the physics
-// settings of the top level, a `reference:` map, and files named relative to the file that
-// names them. Defined in experiment.cpp; docs/experiment-format.md describes them.
+// settings of the top level, a `reference:` map, switchable sections, and files named relative
+// to the file that names them. Defined in experiment.cpp; docs/experiment-format.md describes them.
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -37,6 +38,18 @@ std::vector<SensorSpec> read_sensor_list(const Reader& rd, const YAML::Node& nod
 /// A `reference:` map (type circle, figure_eight, setpoint, ...).
 std::shared_ptr<const Reference> read_reference_spec(const Reader& rd, const YAML::Node& node,
                                                      const std::string& path);
+
+/// A section that is true, false or a map of settings with an optional `enabled` (default true):
+/// sets `enabled` and returns the map when it is one (`payload:`, `battery:`, a fleet's
+/// `downwash:`).
+std::optional<Map> switchable_section(const Reader& rd, const YAML::Node& node,
+                                      const std::string& path, NameList keys,
+                                      const std::string& expected, bool& enabled);
+
+/// The number at `key` of `m`, which must be >= 0 ("expected <what> >= 0"), or `fallback` when
+/// the key is absent.
+double read_nonnegative(const Reader& rd, const Map& m, std::string_view key, double fallback,
+                        const std::string& what);
 
 /// The file named by string node `node`: relative to the reading file's directory if it is
 /// there, else to the current directory; fails naming `what` and where it looked.

@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cmath>
+#include <optional>
 #include <string_view>
 #include <utility>
 
@@ -26,25 +27,17 @@ constexpr std::array<std::string_view, 5> kDownwashKeys{
 
 DownwashSettings read_downwash(const Reader& rd, const YAML::Node& node) {
   DownwashSettings d;
-  if (node.IsScalar()) {
-    d.enabled = rd.boolean(node, "downwash");
-    return d;
-  }
-  const Map m =
-      rd.map(node, "downwash", kDownwashKeys, "true, false or a map of downwash settings");
-  if (m.has("enabled")) d.enabled = rd.boolean(m.get("enabled"), m.path("enabled"));
+  const std::optional<Map> m = io_detail::switchable_section(
+      rd, node, "downwash", kDownwashKeys, "true, false or a map of downwash settings", d.enabled);
+  if (!m) return d;
   for (const auto& [key, out] :
        {std::pair<std::string_view, double*>{"spreading_rate", &d.spreading_rate},
         {"propeller_radius_m", &d.propeller_radius_m},
         {"air_density_kg_m3", &d.air_density_kg_m3}}) {
-    if (m.has(key)) *out = rd.positive(m.get(key), m.path(key));
+    if (m->has(key)) *out = rd.positive(m->get(key), m->path(key));
   }
-  if (m.has("thrust_lapse")) {
-    const YAML::Node n = m.get("thrust_lapse");
-    d.thrust_lapse = rd.number(n, m.path("thrust_lapse"));
-    if (d.thrust_lapse < 0.0)
-      rd.fail(n, m.path("thrust_lapse"), "expected a number >= 0, got " + n.Scalar());
-  }
+  d.thrust_lapse =
+      io_detail::read_nonnegative(rd, *m, "thrust_lapse", d.thrust_lapse, "a thrust lapse");
   return d;
 }
 

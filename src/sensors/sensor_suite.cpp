@@ -119,6 +119,13 @@ std::vector<SensorChannel> sensor_channels(const SensorSpec& spec, int num_rotor
   return l.c;
 }
 
+int sensor_channel_index(const SensorSpec& spec, int num_rotors, std::string_view suffix) {
+  const std::vector<SensorChannel> channels = sensor_channels(spec, num_rotors);
+  for (std::size_t i = 0; i < channels.size(); ++i)
+    if (channels[i].suffix == suffix) return static_cast<int>(i);
+  return -1;
+}
+
 // ---- validation ---------------------------------------------------------------------------------
 
 namespace {
@@ -147,6 +154,37 @@ void check_triad(const TriadNoise& n, const std::string& p) {
   positive(n.bias_correlation_time_s, detail::concat(p, ".bias_correlation_time_s"));
   non_negative(n.turn_on_bias, detail::concat(p, ".turn_on_bias"));
   non_negative(n.range, detail::concat(p, ".range"));
+}
+
+/// faults[j]: a window that starts at a finite time >= 0 and ends after it; a bias step on a
+/// channel the sensor has, by a finite amount; a dropout without either.
+void check_faults(const SensorSpec& s, double physics_dt_s) {
+  if (s.faults.size() > kMaxSensorFaults)
+    throw InvalidArgument(detail::concat("faults: expected at most ", kMaxSensorFaults,
+                                         " faults on one sensor, got ", s.faults.size()));
+  for (std::size_t j = 0; j < s.faults.size(); ++j) {
+    const SensorFault& f = s.faults[j];
+    const std::string at = detail::concat("faults[", j, "].");
+    non_negative(f.start_s, at + "start_s");
+    need(f.end_s == f.end_s && f.end_s >= f.start_s + physics_dt_s, at + "end_s",
+         "a time at least one physics step after start_s (or none: the fault lasts)", f.end_s);
+    if (f.kind == SensorFaultKind::kDropout) {
+      if (!f.channel.empty() || f.value != 0.0)
+        throw InvalidArgument(detail::concat(
+            at, "channel: a dropout loses whole samples and has no channel or value, got '",
+            f.channel, "' and ", f.value));
+      continue;
+    }
+    need(std::isfinite(f.value), at + "value", "a finite number", f.value);
+    if (sensor_channel_index(s, kMaxRotors, f.channel) < 0) {
+      std::string names;
+      for (const SensorChannel& c : sensor_channels(s, s.parameters.index() == 7 ? 4 : 1))
+        names += detail::concat(names.empty() ? "" : ", ", c.suffix);
+      throw InvalidArgument(detail::concat(
+          at, "channel: expected a channel of a ", s.type_name(), " (", names,
+          s.parameters.index() == 7 ? ", ... one per rotor" : "", "), got '", f.channel, "'"));
+    }
+  }
 }
 
 bool valid_name(const std::string& s) {
@@ -222,6 +260,7 @@ void validate(const SensorSpec& s, double physics_dt_s) {
         }
       },
       s.parameters);
+  check_faults(s, physics_dt_s);
 }
 
 // ---- the suite ----------------------------------------------------------------------------------
@@ -251,6 +290,17 @@ SensorSuite::SensorSuite(std::vector<SensorSpec> specs, double physics_dt_s, int
     const double in_flight = std::ceil(specs_[i].latency_s * specs_[i].rate_hz + 1e-9);
     runtime_[i].pending.resize(static_cast<std::size_t>(in_flight) + 2);
     runtime_[i].size = static_cast<int>(sensor_channels(specs_[i], num_rotors_).size());
+    for (std::size_t j = 0; j < specs_[i].faults.size(); ++j) {
+      const SensorFault& f = specs_[i].faults[j];
+      const int channel = f.kind == SensorFaultKind::kBiasStep
+                              ? sensor_channel_index(specs_[i], num_rotors_, f.channel)
+                              : -1;
+      require(f.kind != SensorFaultKind::kBiasStep || channel >= 0, "sensors[", i, "] (",
+              specs_[i].name, "): faults[", j, "].channel: '", f.channel, "' is not a channel of ",
+              num_rotors_, " rotors (", runtime_[i].size, " channels: w0 .. w",
+              runtime_[i].size - 1, ")");
+      runtime_[i].fault_channel.push_back(channel);
+    }
   }
   reset(seed);
 }
@@ -323,6 +373,13 @@ void SensorSuite::sample(std::size_t i, const SensorTruth& t) {
       s.parameters);
   reading.size = r.size;
   r.last_stamp_s = t.time_s;
+  // Faults act after the noise: the streams and bias processes advance as on a healthy sensor.
+  for (std::size_t j = 0; j < s.faults.size(); ++j) {
+    const SensorFault& f = s.faults[j];
+    if (!f.active_at(t.time_s, dt_s_)) continue;
+    if (f.kind == SensorFaultKind::kDropout) return;  // taken, and lost
+    reading.values[static_cast<std::size_t>(r.fault_channel[j])] += f.value;
+  }
   // The ring cannot overflow: its capacity is the samples one latency holds, plus two.
   r.pending[(r.head + r.count) % r.pending.size()] = reading;
   ++r.count;

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <numbers>
 #include <sstream>
@@ -377,7 +378,7 @@ TEST(ExperimentSensors, KeysOfAnotherTypeOrUnknownKeysAreRejected) {
                {"s.yaml: sensors[0]: unknown key 'noise_Pa' for a sensor of type imu",
                 "a key of type barometer",
                 "valid keys: type, name, rate_hz, latency_s, "
-                "mounting, gyro, accel"});
+                "mounting, faults, gyro, accel"});
   expect_error("\n  - {type: gps, noise_rad_s: 1}\n",
                {"s.yaml: sensors[0]: unknown key 'noise_rad_s' for a sensor of type gps (it is a "
                 "key of type optical_flow, rotor_speed)"});
@@ -389,6 +390,54 @@ TEST(ExperimentSensors, KeysOfAnotherTypeOrUnknownKeysAreRejected) {
   expect_error("\n  - {type: imu, mounting: {rpy_dg: [0, 0, 0]}}\n",
                {"s.yaml: sensors[0].mounting: unknown key 'rpy_dg'; did you mean 'rpy_deg'?"});
   expect_error("\n  - {type: imu, type: gps}\n", {"duplicate key 'type'"});
+}
+
+TEST(ExperimentSensors, FaultsAreReadInOrder) {
+  const Experiment e = parse(
+      "\n  - type: imu\n    faults:\n"
+      "      - {type: bias_step, start_s: 20, channel: wz, value: 0.05}\n"
+      "      - {type: bias_step, start_s: 1, end_s: 2, channel: fx, value: -0.5}\n"
+      "  - type: motion_capture\n    faults: [{type: dropout, start_s: 10, end_s: 12}]\n"
+      "  - {type: gps, faults: [{type: dropout, start_s: 3}]}\n");
+  ASSERT_EQ(e.sensors.size(), 3u);
+  ASSERT_EQ(e.sensors[0].faults.size(), 2u);
+  const SensorFault& wz = e.sensors[0].faults[0];
+  EXPECT_EQ(wz.kind, SensorFaultKind::kBiasStep);
+  EXPECT_EQ(wz.start_s, 20.0);
+  EXPECT_TRUE(std::isinf(wz.end_s));
+  EXPECT_EQ(wz.channel, "wz");
+  EXPECT_EQ(wz.value, 0.05);
+  EXPECT_EQ(e.sensors[0].faults[1].end_s, 2.0);
+  EXPECT_EQ(e.sensors[0].faults[1].value, -0.5);
+  ASSERT_EQ(e.sensors[1].faults.size(), 1u);
+  EXPECT_EQ(e.sensors[1].faults[0].kind, SensorFaultKind::kDropout);
+  EXPECT_EQ(e.sensors[1].faults[0].end_s, 12.0);
+  EXPECT_TRUE(std::isinf(e.sensors[2].faults[0].end_s));
+}
+
+TEST(ExperimentSensors, BadFaultsNameTheFieldAndLine) {
+  expect_error(
+      "\n  - type: barometer\n    faults:\n"
+      "      - {type: bias_step, start_s: 1, channel: z, value: 3}\n",
+      {"s.yaml: sensors[0].faults[0].channel: expected a channel of a barometer (p), "
+       "got 'z'",
+       "(line 8)"});
+  expect_error("\n  - {type: imu, faults: [{type: bias_stp, start_s: 1}]}\n",
+               {"s.yaml: sensors[0].faults[0].type: unknown sensor fault type 'bias_stp'; did "
+                "you mean 'bias_step'?"});
+  expect_error("\n  - {type: imu, faults: [{type: bias_step, start_s: 1, value: 3}]}\n",
+               {"s.yaml: sensors[0].faults[0]: missing required key 'channel'"});
+  expect_error("\n  - {type: imu, faults: [{type: dropout, start_s: 1, value: 3}]}\n",
+               {"s.yaml: sensors[0].faults[0].value: only a bias_step has a channel and a value"});
+  expect_error("\n  - {type: imu, faults: [{type: dropout, start_s: 5, end_s: 4}]}\n",
+               {"s.yaml: sensors[0].faults[0].end_s: expected a time at least one physics step "
+                "after start_s (or none: the fault lasts), got 4"});
+  expect_error("\n  - {type: imu, faults: [{type: dropout, start_s: -1}]}\n",
+               {"s.yaml: sensors[0].faults[0].start_s: expected a finite number >= 0, got -1"});
+  expect_error("\n  - {type: imu, faults: {type: dropout, start_s: 1}}\n",
+               {"s.yaml: sensors[0].faults: expected a list of at most 16 faults"});
+  expect_error("\n  - {type: imu, faults: [{type: dropout, start_s: 1, chanel: wz}]}\n",
+               {"s.yaml: sensors[0].faults[0]: unknown key 'chanel'; did you mean 'channel'?"});
 }
 
 TEST(ExperimentSensors, RangeFinderMaxMustExceedMin) {

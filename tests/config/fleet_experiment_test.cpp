@@ -50,9 +50,15 @@ TEST(FleetExperiment, MistakesAreNamed) {
                 .find("downwash.spreading_rate: expected a number > 0"),
             std::string::npos);
   EXPECT_NE(error(head + "downwash: {thrust_lapse: -0.5}\n" + two)
-                .find("downwash.thrust_lapse: expected a number >= 0, got -0.5"),
+                .find("downwash.thrust_lapse: expected a thrust lapse >= 0, got -0.5"),
             std::string::npos);
   EXPECT_NE(error(head + "downwash: {thrust: 1}\n" + two).find("downwash"), std::string::npos);
+  for (const std::string key : {"propeller_radius_m", "air_density_kg_m3"})
+    EXPECT_NE(error(head + "downwash: {" + key + ": 0}\n" + two)
+                  .find("downwash." + key + ": expected a number > 0"),
+              std::string::npos)
+        << key;
+  EXPECT_NE(error(head + "downwash: maybe\n" + two).find("downwash"), std::string::npos);
   EXPECT_NE(error(head + "vehicles:\n  - {name: a, experiment: " + upper +
                   "}\n  - {name: a, experiment: " + lower + "}\n")
                 .find("vehicles[1].name: two vehicles are called 'a'"),
@@ -71,6 +77,16 @@ TEST(FleetExperiment, MistakesAreNamed) {
   EXPECT_NE(error(head + "vehicles:\n  - {name: a, experiment: " + upper +
                   "}\n  - {name: b, experiment: " + coarse + "}\n")
                 .find("physics_dt_s of '" + coarse + "' is 0.002 s, but 0.001 s in"),
+            std::string::npos);
+  // A vehicle that paces at real time would hold the others back.
+  const std::string paced = dir.write(
+      "paced.yaml", "model: " + test::source_path("models/qdrone2.yaml") +
+                        "\nname: paced\nduration_s: 1\n"
+                        "input: {type: controller, controller: " +
+                        test::source_path("config/controllers/se3.yaml") +
+                        ", real_time: true, reference: {type: setpoint, position_m: [0, 0, 1]}}\n");
+  EXPECT_NE(error(head + "vehicles:\n  - {name: a, experiment: " + paced + "}\n")
+                .find("paces at real time (input.real_time): a fleet steps as fast as it can"),
             std::string::npos);
   // An error inside a vehicle's own file names that file.
   const std::string broken = dir.write("broken.yaml", "name: broken\nduration_s: -1\n");

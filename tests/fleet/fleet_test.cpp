@@ -147,6 +147,18 @@ TEST_F(FleetTest, BadFleetsAreRefusedByName) {
               Fleet f(bad);
             }).find("downwash.spreading_rate: expected a number > 0, got -0.1"),
             std::string::npos);
+  // Every other setting, each on its own.
+  const auto refused = [](void (*spoil)(DownwashSettings&)) {
+    DownwashSettings d;
+    spoil(d);
+    return test::error_of([&] { Fleet f(d); });
+  };
+  EXPECT_EQ(refused([](DownwashSettings& d) { d.propeller_radius_m = 0.0; }),
+            "downwash.propeller_radius_m: expected a number > 0, got 0");
+  EXPECT_EQ(refused([](DownwashSettings& d) { d.thrust_lapse = -0.5; }),
+            "downwash.thrust_lapse: expected a number >= 0, got -0.5");
+  EXPECT_EQ(refused([](DownwashSettings& d) { d.air_density_kg_m3 = 0.0; }),
+            "downwash.air_density_kg_m3: expected a number > 0, got 0");
   Fleet empty;
   EXPECT_NE(test::error_of([&] { (void)empty.run(1.0); }).find("has no vehicles"),
             std::string::npos);

@@ -53,6 +53,32 @@ def test_every_lane_equals_the_simulator_bit_for_bit(qdrone2):
     np.testing.assert_array_equal(batch.step_count, np.full(n, 1500))
 
 
+def test_rotor_faults_act_in_every_lane_on_its_own_clock(qdrone2):
+    """The config's faults in every lane, from its own reset, as in a Simulator with them."""
+    n = 3
+    hover = qdrone2.hover_speeds_rad_s()
+    cfg = dt.SimConfig()
+    cfg.faults = [dt.RotorFault.degraded(0, 0.2, 0.5), dt.RotorFault.stop(2, 0.4),
+                  dt.RotorFault.stuck(1, 0.1)]
+    starts = np.array([dt.Simulator.hover_state([0.3 * k, 0.0, 10.0]) for k in range(n)])
+    refs = hover * (1.0 + 0.02 * np.arange(n))[:, None]
+    batch = dt.BatchSimulator(qdrone2, cfg, num_vehicles=n, num_threads=2)
+    batch.reset(None, starts, np.tile(hover, (n, 1)))
+    batch.rotor_speed_reference[:] = refs
+    assert batch.step(300) == 0
+    batch.reset(1, starts[1], hover)  # lane 1 starts again: its faults with it
+    batch.rotor_speed_reference[1] = refs[1]
+    assert batch.step(400) == 0
+    for k, steps in ((0, 700), (1, 400), (2, 700)):
+        sim = dt.Simulator(qdrone2, cfg)
+        sim.reset(starts[k], hover)
+        sim.set_rotor_speed_reference(refs[k])
+        sim.step(steps)
+        np.testing.assert_allclose(batch.state[k], sim.state, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(batch.rotor_speeds[k], sim.rotor_speeds_rad_s, rtol=1e-12)
+    assert batch.rotor_speeds[0, 2] < 0.3 * hover[2]  # stopped at 0.4 s
+
+
 def test_a_lane_with_a_nan_written_into_it_stops_alone(qdrone2):
     batch = dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=4)
     hover = qdrone2.hover_speeds_rad_s()

@@ -42,8 +42,8 @@ def test_bad_faults_are_named(qdrone2):
         dt.Simulator(qdrone2, cfg)
     with pytest.raises(ValueError, match="at most 8 rotor faults, got 9"):
         cfg.faults = [dt.RotorFault.stop(0, 1.0)] * 9
-    cfg.faults = [dt.RotorFault.stuck(0, 1.0)]
-    with pytest.raises(ValueError, match="rotor faults"):
+    cfg.faults = [dt.RotorFault.stuck(5, 1.0)]
+    with pytest.raises(ValueError, match=r"faults\[0\]\.rotor: expected 0 \.\. 3"):
         dt.BatchSimulator(qdrone2, cfg, 2)
 
 

@@ -80,3 +80,7 @@ def test_the_cli_runs_fleet_files(cli, tmp_path):
     r = subprocess.run([cli, "run", path, "--out", str(tmp_path / "x"), "--seed", "3"],
                        capture_output=True, text=True, check=False)
     assert r.returncode != 0 and "--seed" in r.stderr
+    r = subprocess.run([cli, "run", path, "--out", str(tmp_path / "y"), "--real-time"],
+                       capture_output=True, text=True, check=False)
+    assert r.returncode != 0 and "--real-time" in r.stderr
+    assert not (tmp_path / "y").exists()

@@ -44,6 +44,29 @@ def test_suite_runs_with_the_simulator_and_is_seeded(qdrone2):
     assert stamp == pytest.approx(2.0) and values.shape == (1,)
 
 
+def test_sensor_faults_from_python_specs(qdrone2):
+    """A faulty suite against a healthy one with the same seed: the dropout's samples are gone
+    and every other one is bitwise the same; the bias step moves its channel by its value."""
+    healthy = [{"type": "motion_capture"}, {"type": "barometer"}]
+    faulty = [{"type": "motion_capture", "faults": [{"type": "dropout", "start_s": 0.5, "end_s": 1.0}]},
+              {"type": "barometer", "faults": [{"type": "bias_step", "start_s": 1.0, "channel": "p",
+                                                "value": -120.0}]}]
+    runs = [dt.SensorSuite(s, 1e-3, 4, seed=5).run(hovering(qdrone2), 2000) for s in (healthy, faulty)]
+    (ta, ma), (tb, mb) = runs[0]["mocap"], runs[1]["mocap"]
+    kept = (ta < 0.5 - 5e-4) | (ta >= 1.0 - 5e-4)
+    assert len(tb) == np.count_nonzero(kept) == len(ta) - 50  # 100 Hz for 0.5 s
+    assert np.array_equal(tb, ta[kept]) and np.array_equal(mb, ma[kept])
+    (pa_t, pa), (pb_t, pb) = runs[0]["baro"], runs[1]["baro"]
+    assert np.array_equal(pa_t, pb_t)
+    step = pb[:, 0] - pa[:, 0]
+    assert np.all(step[pa_t < 1.0 - 5e-4] == 0.0)
+    assert np.allclose(step[pa_t >= 1.0 - 5e-4], -120.0, rtol=0, atol=1e-9)
+    with pytest.raises(ValueError, match=r"sensors\[0\]\.faults\[0\]\.channel: expected a channel of a "
+                                         r"motion_capture \(x, y, z, qw, qx, qy, qz\), got 'p'"):
+        dt.SensorSuite([{"type": "motion_capture", "faults": [
+            {"type": "bias_step", "start_s": 0, "channel": "p", "value": 1}]}], 1e-3, 4)
+
+
 def test_static_imu_allan_deviation_matches_the_noise_density(qdrone2):
     density = 2.44e-4
     gyro = {"noise_density": density, "bias_random_walk": 0.0, "bias_instability": 0.0,

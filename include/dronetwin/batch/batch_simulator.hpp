@@ -53,6 +53,12 @@
 // set_seed(). A lane then equals a Simulator whose seed is counter_stream_key(seed, lane)
 // (noise off). The field costs a per-lane scalar pass per step (docs/performance.md).
 //
+// Rotor faults (config.faults; faults/rotor_fault.hpp): every lane carries the config's faults on
+// its own clock (from its reset), as a Simulator would: a lost-effectiveness fault swaps the
+// lane's thrust polynomial in its pack's kernel (rebuilt at the step a lane's fault begins), a
+// stop drives its rotor's reference to zero, a stuck motor holds its speed. In double a lane
+// equals a Simulator with the same faults to round-off (tests/batch/batch_faults_test.cpp).
+//
 // Trap: one BatchSimulator is stepped by one thread at a time (it says so, SimulationError, if
 // two try); its own pool does the parallel work.
 
@@ -284,6 +290,14 @@ class BatchSimulator {
   // Wind field (config().wind varies): each lane's Dryden filters and their stream.
   std::vector<DrydenState> turbulence_;
   std::vector<Random> turbulence_rng_;
+
+  // Rotor faults: the lost-effectiveness faults in the order they begin (the Simulator's), and
+  // per lane the faults acting on its last step, its kernel's effectiveness stage (how many of
+  // `effectiveness_order_` it has), and each stuck rotor's held speed ([rotor * stride + lane]).
+  std::vector<int> effectiveness_order_;
+  std::vector<std::uint32_t> fault_active_;
+  std::vector<std::uint8_t> fault_stage_;
+  AlignedArray<T> stuck_speed_;
 
   // Parameters: one value per parameter and lane; a pack whose lanes changed is rebuilt before
   // the next step.

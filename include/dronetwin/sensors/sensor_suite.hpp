@@ -13,6 +13,9 @@
 //               suite.update(sim.step_count(), make_sensor_truth(sim, previous)); }
 //   const SensorReading& imu = suite.latest(0);               // what a flight stack has now
 //
+// Faults (SensorSpec::faults): a sample taken in a dropout is drawn and then lost; a bias step
+// adds its value to the sample before it waits out the latency.
+//
 // Timing: sample n of a sensor with rate f is taken at the first physics step whose time k dt
 // reaches n / f (so 30 Hz at 1 kHz alternates 33- and 34-step gaps and never drifts), stamped
 // with that step's time, and delivered at the first step whose time reaches stamp + latency.
@@ -27,6 +30,7 @@
 #include <variant>
 #include <vector>
 
+#include "dronetwin/faults/sensor_fault.hpp"
 #include "dronetwin/noise/random.hpp"
 #include "dronetwin/sensors/barometer.hpp"
 #include "dronetwin/sensors/gps.hpp"
@@ -62,6 +66,8 @@ struct SensorSpec {
   double latency_s = 0.0;
   Mounting mounting{};
   SensorParameters parameters = ImuParameters{};
+  /// Dropouts and bias steps (faults/sensor_fault.hpp), at most kMaxSensorFaults.
+  std::vector<SensorFault> faults;
 
   std::string_view type_name() const { return kSensorTypeNames[parameters.index()]; }
 
@@ -85,9 +91,13 @@ struct SensorChannel {
 /// The channels of `spec` (rotor_speed: one per rotor), in reading order.
 std::vector<SensorChannel> sensor_channels(const SensorSpec& spec, int num_rotors);
 
+/// The index in sensor_channels(spec, num_rotors) of the channel whose suffix is `suffix`, or -1.
+int sensor_channel_index(const SensorSpec& spec, int num_rotors, std::string_view suffix);
+
 /// Throws InvalidArgument "<field>: expected ..., got ..." (field relative to the sensor, e.g.
-/// "gyro.noise_density", "rate_hz") for a setting out of range or not finite; `physics_dt_s`
-/// bounds the rate (at most one sample per physics step).
+/// "gyro.noise_density", "rate_hz", "faults[0].channel") for a setting out of range or not
+/// finite; `physics_dt_s` bounds the rate (at most one sample per physics step). A bias step's
+/// channel is checked against the most rotors a vehicle has (the suite checks its own count).
 void validate(const SensorSpec& spec, double physics_dt_s);
 
 /// Largest number of values in one reading (the rotor count's maximum).
@@ -137,6 +147,7 @@ class SensorSuite {
     int size = 0;  ///< values per reading
     SensorReading latest;
     bool fresh = false;
+    std::vector<int> fault_channel;  ///< per fault: the bias step's value index (-1: dropout)
   };
   std::int64_t step_of_sample(const SensorSpec& spec, std::int64_t n) const;
   void sample(std::size_t i, const SensorTruth& truth);
