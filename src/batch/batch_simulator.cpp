@@ -158,22 +158,9 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
   fault_active_.assign(n, 0);
   fault_stage_.assign(n, 0);
   if (config_.faults.any()) {
+    validate_fault_rotors(config_.faults, model_->num_rotors(), model_->name(), "BatchSimulator: ");
     stuck_speed_ = AlignedArray<T>(n * kMaxRotors);
-    const FaultSettings& f = config_.faults;
-    for (int j = 0; j < f.num_rotor_faults; ++j) {
-      require(f.rotor[static_cast<std::size_t>(j)].rotor < model_->num_rotors(),
-              "BatchSimulator: faults[", j, "].rotor: expected 0 .. ", model_->num_rotors() - 1,
-              " (rotors of ", model_->name(), "), got ",
-              f.rotor[static_cast<std::size_t>(j)].rotor);
-      if (f.rotor[static_cast<std::size_t>(j)].kind == RotorFaultKind::kEffectiveness)
-        effectiveness_order_.push_back(j);
-    }
-    // By start, ties in file order: the order in which Simulator::build_fault_forces scales them.
-    std::sort(effectiveness_order_.begin(), effectiveness_order_.end(), [&](int a, int b) {
-      const double sa = f.rotor[static_cast<std::size_t>(a)].start_s;
-      const double sb = f.rotor[static_cast<std::size_t>(b)].start_s;
-      return sa < sb || (sa == sb && a < b);
-    });
+    num_effectiveness_ = config_.faults.effectiveness_order(effectiveness_order_);
   }
   if (config_.noise.enabled) {
     noise_ = AlignedArray<T>(n * kStateSize);
@@ -692,8 +679,9 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
         active[li] = faults.active_at(t, config_.dt_s);
         // Those acting are a prefix of the start order (Simulator::effectiveness_stage).
         std::uint8_t stage = 0;
-        for (const int j : effectiveness_order_)
-          stage = static_cast<std::uint8_t>(stage + ((active[li] >> j) & 1u));
+        for (int k = 0; k < num_effectiveness_; ++k)
+          stage = static_cast<std::uint8_t>(
+              stage + ((active[li] >> effectiveness_order_[static_cast<std::size_t>(k)]) & 1u));
         if (stage != fault_stage_[base + li]) {
           fault_stage_[base + li] = stage;
           restage = true;

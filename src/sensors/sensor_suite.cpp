@@ -177,12 +177,14 @@ void check_faults(const SensorSpec& s, double physics_dt_s) {
     }
     need(std::isfinite(f.value), at + "value", "a finite number", f.value);
     if (sensor_channel_index(s, kMaxRotors, f.channel) < 0) {
+      // Rotor speeds: the first four channels show the pattern (one per rotor).
+      const bool per_rotor = std::holds_alternative<RotorSpeedSensorParameters>(s.parameters);
       std::string names;
-      for (const SensorChannel& c : sensor_channels(s, s.parameters.index() == 7 ? 4 : 1))
+      for (const SensorChannel& c : sensor_channels(s, per_rotor ? 4 : 1))
         names += detail::concat(names.empty() ? "" : ", ", c.suffix);
-      throw InvalidArgument(detail::concat(
-          at, "channel: expected a channel of a ", s.type_name(), " (", names,
-          s.parameters.index() == 7 ? ", ... one per rotor" : "", "), got '", f.channel, "'"));
+      throw InvalidArgument(detail::concat(at, "channel: expected a channel of a ", s.type_name(),
+                                           " (", names, per_rotor ? ", ... one per rotor" : "",
+                                           "), got '", f.channel, "'"));
     }
   }
 }

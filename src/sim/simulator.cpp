@@ -130,6 +130,15 @@ struct FaultedForces {
   std::vector<ForceKernel<double>> kernels;
 };
 
+void validate_fault_rotors(const FaultSettings& faults, int num_rotors, std::string_view vehicle,
+                           std::string_view prefix) {
+  for (int j = 0; j < faults.num_rotor_faults; ++j) {
+    const int rotor = faults.rotor[static_cast<std::size_t>(j)].rotor;
+    require(rotor < num_rotors, prefix, "faults[", j, "].rotor: expected 0 .. ", num_rotors - 1,
+            " (rotors of '", vehicle, "'), got ", rotor);
+  }
+}
+
 void validate(const SimConfig& c) {
   require(std::isfinite(c.dt_s) && c.dt_s > 0.0 && c.dt_s <= 0.1,
           "simulation config: dt_s: expected a step in (0, 0.1] s, got ", c.dt_s);
@@ -173,12 +182,8 @@ Simulator::Simulator(std::shared_ptr<const VehicleModel> model, SimConfig config
   require(model_ != nullptr, "Simulator: model is null");
   validate(config_);
   motors_ = discretize_motors(*model_, config_.dt_s);
-  for (int j = 0; j < config_.faults.num_rotor_faults; ++j) {
-    const int rotor = config_.faults.rotor[static_cast<std::size_t>(j)].rotor;
-    require(rotor < model_->num_rotors(), "simulation config: faults[", j,
-            "].rotor: expected 0 .. ", model_->num_rotors() - 1, " (rotors of '", model_->name(),
-            "'), got ", rotor);
-  }
+  validate_fault_rotors(config_.faults, model_->num_rotors(), model_->name(),
+                        "simulation config: ");
   kernel_ =
       std::make_shared<const ForceKernel<double>>(*model_, ForceTerms::of(config_.disturbances));
   build_fault_forces();
@@ -350,11 +355,7 @@ void Simulator::set_disturbances(const DisturbanceSwitches& switches) {
 void Simulator::set_faults(const FaultSettings& faults) {
   const SingleThreadGuard::Hold hold(guard_, "Simulator::set_faults");
   validate_faults(faults);
-  for (int j = 0; j < faults.num_rotor_faults; ++j) {
-    const int rotor = faults.rotor[static_cast<std::size_t>(j)].rotor;
-    require(rotor < model_->num_rotors(), "faults[", j, "].rotor: expected 0 .. ",
-            model_->num_rotors() - 1, " (rotors of '", model_->name(), "'), got ", rotor);
-  }
+  validate_fault_rotors(faults, model_->num_rotors(), model_->name());
   config_.faults = faults;
   data_.active_faults = 0;
   build_fault_forces();
@@ -369,26 +370,17 @@ void Simulator::set_battery(const BatterySettings& battery) {
 
 void Simulator::build_fault_forces() {
   const FaultSettings& f = config_.faults;
-  std::vector<int> order;
-  for (int j = 0; j < f.num_rotor_faults; ++j)
-    if (f.rotor[static_cast<std::size_t>(j)].kind == RotorFaultKind::kEffectiveness)
-      order.push_back(j);
-  if (order.empty()) {
+  std::array<int, kMaxRotorFaults> sorted{};
+  const int count = f.effectiveness_order(sorted);
+  if (count == 0) {
     faulted_.reset();
     return;
   }
-  // By start, ties in file order. std::sort, not stable_sort: the latter takes a temporary
-  // buffer with a nothrow operator new (which the allocation-counting tests do not replace).
-  std::sort(order.begin(), order.end(), [&](int a, int b) {
-    const double sa = f.rotor[static_cast<std::size_t>(a)].start_s;
-    const double sb = f.rotor[static_cast<std::size_t>(b)].start_s;
-    return sa < sb || (sa == sb && a < b);
-  });
   auto forces = std::make_shared<FaultedForces>();
-  forces->order = order;
+  forces->order.assign(sorted.begin(), sorted.begin() + count);
   VehicleParametersTpl<double> p = model_->parameters();
   const ForceTerms terms = ForceTerms::of(config_.disturbances);
-  for (const int j : order) {
+  for (const int j : forces->order) {
     const RotorFault& fault = f.rotor[static_cast<std::size_t>(j)];
     for (double& k : p.rotors[static_cast<std::size_t>(fault.rotor)].thrust_coefficients)
       k *= fault.effectiveness;

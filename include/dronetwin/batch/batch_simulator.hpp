@@ -294,7 +294,8 @@ class BatchSimulator {
   // Rotor faults: the lost-effectiveness faults in the order they begin (the Simulator's), and
   // per lane the faults acting on its last step, its kernel's effectiveness stage (how many of
   // `effectiveness_order_` it has), and each stuck rotor's held speed ([rotor * stride + lane]).
-  std::vector<int> effectiveness_order_;
+  std::array<int, kMaxRotorFaults> effectiveness_order_{};
+  int num_effectiveness_ = 0;
   std::vector<std::uint32_t> fault_active_;
   std::vector<std::uint8_t> fault_stage_;
   AlignedArray<T> stuck_speed_;

@@ -46,6 +46,24 @@ struct FaultSettings {
   int num_rotor_faults = 0;
 
   bool any() const { return num_rotor_faults > 0; }
+  /// The lost-effectiveness faults in the order they begin (ties in list order), into `order`;
+  /// returns how many. Their thrust scalings compose in this order, so a vehicle with the first
+  /// n of them acting is the same however many vehicles or lanes fly it. No allocation.
+  int effectiveness_order(std::array<int, kMaxRotorFaults>& order) const {
+    int n = 0;
+    for (int j = 0; j < num_rotor_faults; ++j) {
+      if (rotor[static_cast<std::size_t>(j)].kind != RotorFaultKind::kEffectiveness) continue;
+      // Insertion by start time after every earlier fault that starts no later.
+      int k = n++;
+      for (; k > 0 &&
+             rotor[static_cast<std::size_t>(order[static_cast<std::size_t>(k - 1)])].start_s >
+                 rotor[static_cast<std::size_t>(j)].start_s;
+           --k)
+        order[static_cast<std::size_t>(k)] = order[static_cast<std::size_t>(k - 1)];
+      order[static_cast<std::size_t>(k)] = j;
+    }
+    return n;
+  }
   /// Bit j set when rotor fault j acts on the step starting at `time_s`.
   std::uint32_t active_at(double time_s, double dt_s) const {
     std::uint32_t mask = 0;

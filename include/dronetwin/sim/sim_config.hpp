@@ -4,6 +4,7 @@
 // seed.
 
 #include <cstdint>
+#include <string_view>
 
 #include "dronetwin/dynamics/environment.hpp"
 #include "dronetwin/dynamics/ground.hpp"
@@ -55,5 +56,10 @@ struct SimConfig {
 
 /// Throws InvalidArgument naming the field when a setting is out of range or not finite.
 void validate(const SimConfig& config);
+
+/// Throws InvalidArgument "<prefix>faults[j].rotor: expected 0 .. n-1 (rotors of '<vehicle>'),
+/// got r" for a fault on a rotor the vehicle does not have (validate() knows only kMaxRotors).
+void validate_fault_rotors(const FaultSettings& faults, int num_rotors, std::string_view vehicle,
+                           std::string_view prefix = "");
 
 }  // namespace dronetwin
