@@ -569,6 +569,9 @@ void bind_control(py::module_& m) {
       .def_readwrite("max_moment_Nm", &NmpcOptions::max_moment_Nm)
       .def_readwrite("disturbance_gain", &NmpcOptions::disturbance_gain)
       .def_readwrite("max_disturbance_m_s2", &NmpcOptions::max_disturbance_m_s2)
+      .def_readwrite("moment_observer_time_constant_s",
+                     &NmpcOptions::moment_observer_time_constant_s)
+      .def_readwrite("max_moment_disturbance_Nm", &NmpcOptions::max_moment_disturbance_Nm)
       .def_readwrite("max_iterations", &NmpcOptions::max_iterations)
       .def_readwrite("max_solve_time_s", &NmpcOptions::max_solve_time_s)
       .def_readwrite("function_tolerance", &NmpcOptions::function_tolerance)
@@ -618,6 +621,9 @@ void bind_control(py::module_& m) {
                              [](const NmpcController& c) { return Vec3(c.disturbance_estimate()); })
       .def_property_readonly("commanded_force",
                              [](const NmpcController& c) { return Vec3(c.commanded_force()); })
+      .def_property_readonly(
+          "moment_disturbance_estimate",
+          [](const NmpcController& c) { return Vec3(c.moment_disturbance_estimate()); })
       .def("inject_solve_failures", &NmpcController::inject_solve_failures, py::arg("first"),
            py::arg("count"), "Testing hook: treat solves first..first+count-1 as failed.");
 

@@ -100,7 +100,8 @@ constexpr std::array<std::string_view, 3> kNmpcLimitKeys = {"thrust_N", "max_til
                                                             "max_moment_Nm"};
 constexpr std::array<std::string_view, 4> kNmpcSolverKeys = {"max_iterations", "max_solve_time_s",
                                                              "function_tolerance", "linear_solver"};
-constexpr std::array<std::string_view, 2> kNmpcDisturbanceKeys = {"gain", "max_m_s2"};
+constexpr std::array<std::string_view, 4> kNmpcDisturbanceKeys = {
+    "gain", "max_m_s2", "moment_time_constant_s", "max_moment_Nm"};
 constexpr std::array<std::string_view, 2> kLinearSolvers = {"dense_normal_cholesky", "dense_qr"};
 constexpr std::array<std::string_view, 4> kNmpcOnlyKeys = {"horizon", "weights", "solver",
                                                            "disturbance"};
@@ -248,14 +249,20 @@ void read_nmpc(const Reader& rd, const Map& top, NmpcSettings& c) {
               "expected a number >= 0, got " + w.get("tilt_penalty").Scalar());
   }
   if (top.has("disturbance")) {
-    const Map d = rd.map(top.get("disturbance"), "disturbance", kNmpcDisturbanceKeys,
-                         "a map with gain and optionally max_m_s2");
+    const Map d =
+        rd.map(top.get("disturbance"), "disturbance", kNmpcDisturbanceKeys,
+               "a map with gain and optionally max_m_s2, moment_time_constant_s, max_moment_Nm");
     o.disturbance_gain = rd.number(d.required("gain"), d.path("gain"));
     if (!(o.disturbance_gain >= 0.0 && o.disturbance_gain <= 1.0))
       rd.fail(d.get("gain"), d.path("gain"),
               "expected a number in [0, 1], got " + d.get("gain").Scalar());
     if (d.has("max_m_s2"))
       o.max_disturbance_m_s2 = rd.positive(d.get("max_m_s2"), d.path("max_m_s2"));
+    if (d.has("moment_time_constant_s"))
+      o.moment_observer_time_constant_s =
+          rd.positive(d.get("moment_time_constant_s"), d.path("moment_time_constant_s"));
+    if (d.has("max_moment_Nm"))
+      o.max_moment_disturbance_Nm = rd.positive(d.get("max_moment_Nm"), d.path("max_moment_Nm"));
   }
 
   const Map g = rd.map(top.required("gains"), "gains", kSe3GainKeys,

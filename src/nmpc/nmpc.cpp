@@ -95,6 +95,12 @@ void NmpcOptions::validate() const {
           "nmpc: disturbance_gain: expected a number in [0, 1], got ", disturbance_gain);
   require(std::isfinite(max_disturbance_m_s2) && max_disturbance_m_s2 >= 0.0,
           "nmpc: max_disturbance_m_s2: expected a finite number >= 0, got ", max_disturbance_m_s2);
+  require(std::isfinite(moment_observer_time_constant_s) && moment_observer_time_constant_s >= 0.0,
+          "nmpc: moment_observer_time_constant_s: expected a finite number >= 0 (0 = off), got ",
+          moment_observer_time_constant_s);
+  require(std::isfinite(max_moment_disturbance_Nm) && max_moment_disturbance_Nm >= 0.0,
+          "nmpc: max_moment_disturbance_Nm: expected a finite number >= 0, got ",
+          max_moment_disturbance_Nm);
   require(max_iterations >= 0 && max_iterations <= 1000,
           "nmpc: max_iterations: expected an integer in [0, 1000], got ", max_iterations);
   require(max_solve_time_s > 0.0,
@@ -406,6 +412,8 @@ NmpcController::NmpcController(std::shared_ptr<const VehicleModel> model,
   model_eq323_.inertia_kgm2 = this->model().inertia_kgm2();
   model_eq323_.inertia_inverse = this->model().inertia_inverse();
   solver_ = std::make_unique<Solver>(options_, model_eq323_);
+  for (int i = 0; i < this->model().num_rotors(); ++i)
+    motor_rise_s_ += this->model().rotor(i).time_constant_rise_s / this->model().num_rotors();
   reset();
 }
 
@@ -427,6 +435,13 @@ NmpcController::NmpcController(const NmpcController& other)
       plan_solve_index_(other.plan_solve_index_),
       force_cmd_(other.force_cmd_),
       d_hat_(other.d_hat_),
+      moment_d_hat_(other.moment_d_hat_),
+      moment_cmd_(other.moment_cmd_),
+      moment_applied_(other.moment_applied_),
+      w_prev_(other.w_prev_),
+      t_prev_s_(other.t_prev_s_),
+      observer_primed_(other.observer_primed_),
+      motor_rise_s_(other.motor_rise_s_),
       preview_(other.preview_ ? other.preview_->clone() : nullptr),
       inject_first_(other.inject_first_),
       inject_count_(other.inject_count_) {
@@ -447,7 +462,44 @@ void NmpcController::reset() {
   plan_solve_index_ = -1;
   force_cmd_.setZero();
   d_hat_.setZero();
+  moment_d_hat_.setZero();
+  moment_cmd_.setZero();
+  moment_applied_.setZero();
+  w_prev_.setZero();
+  t_prev_s_ = 0.0;
+  observer_primed_ = false;
   fallback_.reset();
+}
+
+void NmpcController::observe_moment(const ControlInput& in) {
+  if (options_.moment_observer_time_constant_s <= 0.0) return;
+  const Vec3 w_B = in.state.segment<3>(state_index::kAngularVelocity);
+  const double dt_s = in.time_s - t_prev_s_;
+  if (observer_primed_ && dt_s > 0.0) {
+    // The moment the rotors applied over the last call: the command through their rise lag
+    // (Eq. 2.43, first order), exact for a command held over dt_s.
+    const double lag = motor_rise_s_ > 0.0 ? std::exp(-dt_s / motor_rise_s_) : 0.0;
+    moment_applied_ = lag * moment_applied_ + (1.0 - lag) * moment_cmd_;
+    // Euler's equation, J w_dot = M - w x J w + M_d, over the last call.
+    const Mat3& J = model_eq323_.inertia_kgm2;
+    const Vec3 w_mid = 0.5 * (w_B + w_prev_);
+    const Vec3 sample = J * (w_B - w_prev_) / dt_s + w_mid.cross(J * w_mid) - moment_applied_;
+    const double a = 1.0 - std::exp(-dt_s / options_.moment_observer_time_constant_s);
+    moment_d_hat_ += a * (sample - moment_d_hat_);
+    const double n = moment_d_hat_.norm();
+    if (n > options_.max_moment_disturbance_Nm)
+      moment_d_hat_ *= options_.max_moment_disturbance_Nm / n;
+  }
+  w_prev_ = w_B;
+  t_prev_s_ = in.time_s;
+  observer_primed_ = true;
+}
+
+GeneralizedForce NmpcController::compensate_moment(GeneralizedForce u) {
+  if (options_.moment_observer_time_constant_s <= 0.0) return u;
+  u.tail<3>() -= moment_d_hat_;
+  moment_cmd_ = u.tail<3>();
+  return u;
 }
 
 void NmpcController::set_reference_preview(const Reference& reference) {
@@ -631,6 +683,7 @@ void NmpcController::solve(const ControlInput& in) {
 }
 
 GeneralizedForce NmpcController::do_calculate_u(const ControlInput& in) {
+  observe_moment(in);
   solved_this_call_ = calls_ % calls_per_solve_ == 0;
   if (solved_this_call_) solve(in);
   ++calls_;
@@ -640,7 +693,7 @@ GeneralizedForce NmpcController::do_calculate_u(const ControlInput& in) {
     Vec4 q = in.state.segment<4>(state_index::kQuaternion);
     q = q.norm() > 1e-12 ? Vec4(q.normalized()) : Vec4(1, 0, 0, 0);
     force_cmd_ = u[0] * math::rotation_matrix<double>(q).col(2);  // what the fallback flies
-    return u;
+    return compensate_moment(u);
   }
   // The plan's interval in use (0 for a fresh plan; later ones when falling back on it).
   const std::int64_t row = stats_.solve_index - plan_solve_index_;
@@ -674,7 +727,7 @@ GeneralizedForce NmpcController::do_calculate_u(const ControlInput& in) {
                                      options_.se3.attitude_d, model().inertia_kgm2());
   GeneralizedForce u;
   u << f, M;
-  return u;
+  return compensate_moment(u);
 }
 
 }  // namespace dronetwin

@@ -254,6 +254,8 @@ const std::vector<BadCase> kBadCases = {
      "horizon.input_blocks: block lengths sum to 90; expected horizon.steps = 100"},
     {"nmpc_horizon_in_se3.yaml", "horizon: only for type nmpc"},
     {"nmpc_missing_horizon.yaml", "missing required key 'horizon'"},
+    {"nmpc_negative_moment_observer.yaml",
+     "disturbance.moment_time_constant_s: expected a number > 0, got -0.05"},
     {"nmpc_state_weights_12.yaml",
      "weights.state: expected 13 numbers [p (3), v (3), q (4), w (3)], got 12"},
     {"nmpc_step_not_multiple.yaml",
@@ -318,7 +320,7 @@ TEST(BadControllerCorpus, CorpusIsFullyCovered) {
   std::set<std::string> covered;
   for (const BadCase& c : kBadCases) covered.insert(c.file);
   EXPECT_EQ(files, covered);
-  EXPECT_EQ(files.size(), 36u);
+  EXPECT_EQ(files.size(), 37u);
 }
 
 TEST(ControllerConfig, TheFuzzersHangingInputIsRefusedAsNotUtf8) {

@@ -193,6 +193,10 @@ def test_nmpc_from_python_exposes_its_plan_and_solve_statistics(qdrone2):
     names = log["diagnostic_names"]
     assert "solve_time_ms" in names and log["diagnostics"].shape == (len(log["t"]), len(names))
     assert np.all(log["diagnostics"][:, names.index("failed")] == 0)
+    # nmpc.yaml's moment observer: on, and its estimate within its bound.
+    assert nmpc.options.moment_observer_time_constant_s == 0.05
+    md = nmpc.moment_disturbance_estimate
+    assert md.shape == (3,) and np.linalg.norm(md) <= nmpc.options.max_moment_disturbance_Nm
 
 
 def test_nmpc_falls_back_and_reports_it(qdrone2):

@@ -310,6 +310,33 @@ TEST(VecEnvActions, EveryModeHoldsHoverWithItsHoverAction) {
   }
 }
 
+// An environment file's rotor faults act in every episode, from start_s after its reset (the
+// batch's per-lane fault clock).
+TEST(VecEnvFaults, ARotorFaultBeginsAgainInEveryEpisode) {
+  auto env =
+      make_env("hover", 2,
+               "{action: rotor_speeds, faults: [{type: rotor_stop, rotor: 0, start_s: 0.3}], "
+               "hover: {start_offset_m: [0, 0, 0]}, randomization: {position_m: [0, 0, 0], "
+               "velocity_m_s: [0, 0, 0], attitude_rad: [0, 0, 0]}}");
+  const RotorVector hover = env.model().hover_speeds_rad_s();
+  std::vector<double> a;  // one row of hover speeds per env
+  for (int e = 0; e < 2; ++e) a.insert(a.end(), hover.data(), hover.data() + hover.size());
+  env.reset(1);
+  const auto fly = [&](int steps) {
+    for (int t = 0; t < steps; ++t) env.step(a.data());
+  };
+  fly(25);  // 0.25 s: not yet
+  EXPECT_EQ(env.batch().rotor_speeds(0)[0], hover[0]);
+  EXPECT_EQ(env.batch().rotor_speeds(1)[0], hover[0]);
+  fly(15);  // 0.4 s: stopping
+  EXPECT_LT(env.batch().rotor_speeds(0)[0], 0.8 * hover[0]);
+  EXPECT_EQ(env.batch().rotor_speeds(0)[1], hover[1]);
+  env.reset_env(0);  // a new episode for env 0 only: its rotor spins again until 0.3 s
+  fly(10);
+  EXPECT_EQ(env.batch().rotor_speeds(0)[0], hover[0]);
+  EXPECT_LT(env.batch().rotor_speeds(1)[0], 0.5 * hover[0]);
+}
+
 // With normalized_actions, a_n in [-1, 1] means lo + (a_n + 1) / 2 (hi - lo): the same flight as
 // the physical action.
 TEST(VecEnvActions, NormalizedActionsMapOntoTheBox) {

@@ -86,6 +86,15 @@ struct NmpcOptions {
   double disturbance_gain = 0.0;
   /// Bound on |d|, m/s^2.
   double max_disturbance_m_s2 = 3.0;
+  /// Moment disturbance observer of the inner loop (our addition; 0 = off). The plan's attitude
+  /// command starts from the measured attitude, so against a constant moment the attitude law
+  /// acts as a rate damper only and the vehicle turns at M_d / K_w (a rotor at half thrust: ~0.4
+  /// rad/s until the tilt cone). With it, every call low-passes (this time constant, s)
+  /// J w_dot + w x J w - M_applied, M_applied the commanded moment through the motors' rise lag,
+  /// and subtracts the estimate from the commanded moment.
+  double moment_observer_time_constant_s = 0.0;
+  /// Bound on |M_d|, N m.
+  double max_moment_disturbance_Nm = 0.5;
 
   int max_iterations = 10;  ///< Ceres iterations per solve (>= 0)
   /// Wall-clock budget per solve, s; infinity = none (reproducible runs).
@@ -163,6 +172,8 @@ class NmpcController final : public ControllerBase {
   double plan_start_time_s() const { return plan_t0_s_; }
   /// The disturbance acceleration estimate d (zero when disturbance_gain = 0).
   const Vec3& disturbance_estimate() const { return d_hat_; }
+  /// The moment disturbance estimate M_d, body frame, N m (zero when the observer is off).
+  const Vec3& moment_disturbance_estimate() const { return moment_d_hat_; }
   /// The force F_W the inner loop is tracking at the latest call.
   const Vec3& commanded_force() const { return force_cmd_; }
 
@@ -190,6 +201,8 @@ class NmpcController final : public ControllerBase {
 
  private:
   void solve(const ControlInput& in);
+  void observe_moment(const ControlInput& in);
+  GeneralizedForce compensate_moment(GeneralizedForce u);
 
   NmpcOptions options_;
   NmpcModel model_eq323_;
@@ -205,6 +218,15 @@ class NmpcController final : public ControllerBase {
   std::int64_t plan_solve_index_ = -1;
   Vec3 force_cmd_ = Vec3::Zero();
   Vec3 d_hat_ = Vec3::Zero();
+  // Moment observer: the last call's time, body rates and commanded moment, and the commanded
+  // moment through the motor lag (what the rotors apply).
+  Vec3 moment_d_hat_ = Vec3::Zero();
+  Vec3 moment_cmd_ = Vec3::Zero();
+  Vec3 moment_applied_ = Vec3::Zero();
+  Vec3 w_prev_ = Vec3::Zero();
+  double t_prev_s_ = 0.0;
+  bool observer_primed_ = false;
+  double motor_rise_s_ = 0.0;
   std::unique_ptr<Reference> preview_;
   std::int64_t inject_first_ = -1, inject_count_ = 0;
 };
