@@ -24,7 +24,7 @@ namespace {
 
 using namespace dronetwin;
 
-enum class Mode { kOpenLoop, kNoise, kSe3, kWindField, kFaults };
+enum class Mode { kOpenLoop, kNoise, kSe3, kWindField, kFaults, kBattery };
 
 template <class T>
 void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
@@ -47,6 +47,7 @@ void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
     cfg.faults.rotor[1] = RotorFault{RotorFaultKind::kStuck, 1, 1.0, 1.0};
     cfg.faults.num_rotor_faults = 2;
   }
+  if (mode == Mode::kBattery) cfg.battery.enabled = true;  // the 6S default, hover: no cap binds
   BatchSimulator<T> batch(model, cfg, n, threads);
   Se3Options options;
   options.gravity_compensation = true;
@@ -102,6 +103,7 @@ void BM_BatchDoubleSe3(benchmark::State& s) { run<double>(s, Mode::kSe3); }
 void BM_BatchDoubleWindField(benchmark::State& s) { run<double>(s, Mode::kWindField); }
 void BM_BatchFloatSe3(benchmark::State& s) { run<float>(s, Mode::kSe3); }
 void BM_BatchDoubleFaults(benchmark::State& s) { run<double>(s, Mode::kFaults); }
+void BM_BatchDoubleBattery(benchmark::State& s) { run<double>(s, Mode::kBattery); }
 
 void sizes(benchmark::internal::Benchmark* b) {
   b->ArgNames({"N", "steps", "threads"});
@@ -119,6 +121,7 @@ BENCHMARK(BM_BatchDoubleSe3)->Apply(sizes);
 BENCHMARK(BM_BatchFloatSe3)->Apply(sizes);
 BENCHMARK(BM_BatchDoubleWindField)->Apply(sizes);
 BENCHMARK(BM_BatchDoubleFaults)->Apply(sizes);
+BENCHMARK(BM_BatchDoubleBattery)->Apply(sizes);
 
 }  // namespace
 

@@ -222,6 +222,25 @@ void bind_one(py::module_& m, const char* class_name, const char* dtype) {
           },
           "(N,) int64 read-only view: steps taken by each lane since its reset.")
       .def(
+          "battery", [](const B& b, int lane) { return b.battery(lane); }, py::arg("lane"),
+          "The lane's pack (config.battery; full again at the lane's reset): a BatteryState.")
+      .def(
+          "battery_soc",
+          [](const B& b) {
+            py::array_t<double> a(b.size());
+            for (int l = 0; l < b.size(); ++l) a.mutable_at(l) = b.battery(l).soc;
+            return a;
+          },
+          "(N,) state of charge of each lane's pack.")
+      .def(
+          "battery_voltage_V",
+          [](const B& b) {
+            py::array_t<double> a(b.size());
+            for (int l = 0; l < b.size(); ++l) a.mutable_at(l) = b.battery(l).voltage_V;
+            return a;
+          },
+          "(N,) terminal voltage of each lane's pack over its last step, V (0 once cut off).")
+      .def(
           "in_contact",
           [](const B& b) {
             py::array_t<bool> a(b.size());

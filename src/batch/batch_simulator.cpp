@@ -122,9 +122,6 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
     : model_(std::move(model)), config_(std::move(config)) {
   require(model_ != nullptr, "BatchSimulator: model is null");
   validate(config_);
-  require(!config_.battery.enabled,
-          "BatchSimulator: the battery (the config's `battery:`) is flown by Simulator only; "
-          "set battery.enabled = false");
   require(!config_.payload.enabled,
           "BatchSimulator: the slung payload (the config's `payload:`) is flown by Simulator "
           "only; set payload.enabled = false");
@@ -157,6 +154,8 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
   }
   fault_active_.assign(n, 0);
   fault_stage_.assign(n, 0);
+  battery_.assign(n, battery_start(config_.battery.pack));
+  if (config_.battery.enabled) lane_model_.assign(n, VehicleModelTpl<double>(model_->parameters()));
   if (config_.faults.any()) {
     validate_fault_rotors(config_.faults, model_->num_rotors(), model_->name(), "BatchSimulator: ");
     stuck_speed_ = AlignedArray<T>(n * kMaxRotors);
@@ -268,6 +267,7 @@ void BatchSimulator<T>::rebuild_pack(int pack) {
       for (double& c : q.rotors[static_cast<std::size_t>(f.rotor)].thrust_coefficients)
         c *= f.effectiveness;
     }
+    if (!lane_model_.empty()) lane_model_[lane] = VehicleModelTpl<double>(q);
   }
   kernels_[static_cast<std::size_t>(pack)] = ForceKernel<Lanes>(zip_lanes<Lanes>(lanes), terms_);
   MotorDecay& d = decays_[static_cast<std::size_t>(pack)];
@@ -352,6 +352,7 @@ void BatchSimulator<T>::reset(int lane, const StateVector& state,
   status_[l] = static_cast<std::uint8_t>(StepStatus::kOk);
   step_count_[l] = 0;
   restart_turbulence(l);
+  battery_[l] = battery_start(config_.battery.pack);  // a full pack
   // The faults begin again on the lane's new clock.
   fault_active_[l] = 0;
   if (fault_stage_[l] != 0) {
@@ -469,7 +470,7 @@ int BatchSimulator<T>::run_steps(std::int64_t n, BatchInnerLoop<T>* inner_loop) 
     constexpr int kPacksPerTask = 4;
     const int tasks = (num_packs_ + kPacksPerTask - 1) / kPacksPerTask;
     const bool extras = inner_loop != nullptr || config_.noise.enabled || config_.wind.varies() ||
-                        config_.faults.any();
+                        config_.faults.any() || config_.battery.enabled;
     pool_->run(tasks, [this, n, inner_loop, extras](int task) {
       const int end = std::min(num_packs_, (task + 1) * kPacksPerTask);
       for (int c = task * kPacksPerTask; c < end; ++c) {
@@ -666,6 +667,7 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
   // FaultSettings::active_at(time of the step's start).
   const FaultSettings& faults = config_.faults;
   const bool has_faults = kExtras && faults.any();
+  const bool battery = kExtras && config_.battery.enabled;
   std::array<std::uint32_t, kLanes> active{};
 
   for (std::int64_t s = 0; s < n; ++s) {
@@ -811,12 +813,35 @@ DRONETWIN_FLATTEN void BatchSimulator<T>::step_pack(int pack, std::int64_t n,
             stuck_speed_[r * stride + base + l] = speed[r][l];
       }
     }
+    // Battery: each committed lane's pack is drawn by the speeds the step flew with, then caps
+    // the references (stopped rotors' at zero), lane by lane in double as Simulator::step.
+    P cap(std::numeric_limits<T>::max());
+    if (battery) {
+      const BatteryPack& bp = config_.battery.pack;
+      for (int l = 0; l < kLanes; ++l) {
+        if (!commit[l]) continue;
+        const std::size_t lane = base + static_cast<std::size_t>(l);
+        RotorVector flown(nr), target(nr);
+        for (int i = 0; i < nr; ++i) {
+          const auto r = static_cast<std::size_t>(i);
+          flown[i] = static_cast<double>(speed[r][l]);
+          target[i] = has_faults && stopped[r][l] ? 0.0 : static_cast<double>(reference[r][l]);
+        }
+        const VehicleModelTpl<double>& lm = lane_model_[lane];
+        BatteryState& b = battery_[lane];
+        advance_battery(bp, config_.dt_s,
+                        battery_current_A(bp, b, rotor_shaft_power_W(lm, flown) / bp.efficiency),
+                        b);
+        cap[l] = static_cast<T>(battery_speed_cap_rad_s(lm, bp, b, target));
+      }
+    }
     // Motors (Eq. 2.45), after the step as in the Simulator.
     for (int i = 0; i < nr; ++i) {
       const auto r = static_cast<std::size_t>(i);
       const RotorParams& rotor = model_->rotor(i);
       P target = reference[r];
       if (has_faults) stdx::where(stopped[r], target) = P(T(0));
+      if (battery) stdx::where(cap < target, target) = cap;
       const P ref = scalar::clamp(target, P(static_cast<T>(rotor.min_speed_rad_s)),
                                   P(static_cast<T>(rotor.max_speed_rad_s)));
       const P w = config_.motor_dynamics

@@ -117,10 +117,6 @@ EnvFile parse_env_config(const std::string& yaml_text, const std::string& source
   f.model = std::make_shared<const VehicleModel>(load_vehicle_model(model_path));
 
   io_detail::read_sim_settings(rd, top, c.sim);
-  if (c.sim.battery.enabled)
-    rd.fail(top.get("battery"), "battery",
-            "the battery is flown by the Simulator (experiments), not yet by the batched engine "
-            "the environments run on");
   if (c.sim.payload.enabled)
     rd.fail(top.get("payload"), "payload",
             "the slung payload is flown by the Simulator (experiments), not by the batched engine "

@@ -1,6 +1,7 @@
 """The battery from Python (BatteryPack, BatterySettings, SimConfig.battery, Simulator.battery,
 Experiment.battery): a hover drains the pack at the current its power needs, the state of charge
-falls by the charge drawn, experiments log the pack, the batch refuses it, bad settings are named."""
+falls by the charge drawn, experiments log the pack, the batch drains one pack per lane as the
+Simulator does, bad settings are named."""
 
 import numpy as np
 import pytest
@@ -50,7 +51,28 @@ def test_bad_battery_settings_are_named(qdrone2):
     pack.efficiency = 0.0
     with pytest.raises(ValueError, match=r"battery.efficiency: expected a fraction in \(0, 1\], got 0"):
         dt.Simulator(qdrone2, dt.SimConfig()).set_battery(dt.BatterySettings(pack=pack))
+
+
+def test_the_batch_drains_a_pack_per_lane_as_the_simulator(qdrone2):
     cfg = dt.SimConfig()
     cfg.battery = dt.BatterySettings()
-    with pytest.raises(ValueError, match="battery"):
-        dt.BatchSimulator(qdrone2, cfg, 2)
+    cfg.battery.pack.capacity_Ah = 0.05
+    hover = qdrone2.hover_speeds_rad_s()
+    refs = np.array([hover * 0.95, hover * 1.1, hover * 1.6])
+    starts = np.array([dt.Simulator.hover_state([float(k), 0.0, 30.0]) for k in range(3)])
+    batch = dt.BatchSimulator(qdrone2, cfg, 3)
+    batch.reset(None, starts, np.tile(hover, (3, 1)))
+    batch.rotor_speed_reference[:] = refs
+    assert batch.step(1500) == 0
+    socs = batch.battery_soc()
+    assert socs.shape == (3,) and np.all(np.diff(socs) < 0)  # more speed, more charge drawn
+    for k in range(3):
+        sim = dt.Simulator(qdrone2, cfg)
+        sim.reset(starts[k], hover)
+        sim.set_rotor_speed_reference(refs[k])
+        sim.step(1500)
+        assert batch.battery(k).soc == pytest.approx(sim.battery.soc, abs=1e-12)
+        assert batch.battery_voltage_V()[k] == pytest.approx(sim.battery.voltage_V, abs=1e-9)
+        np.testing.assert_allclose(batch.state[k], sim.state, atol=1e-9)
+    batch.reset(0, starts[0], hover)
+    assert batch.battery(0).soc == 1.0  # a full pack again

@@ -337,6 +337,27 @@ TEST(VecEnvFaults, ARotorFaultBeginsAgainInEveryEpisode) {
   EXPECT_LT(env.batch().rotor_speeds(1)[0], 0.5 * hover[0]);
 }
 
+// An environment file's battery: each env drains its own pack, and a new episode starts on a
+// full one (the env's reset resets its lane).
+TEST(VecEnvBattery, EveryEpisodeStartsOnAFullPack) {
+  auto env = make_env("hover", 2,
+                      "{action: rotor_speeds, battery: {capacity_Ah: 0.05, initial_soc: 0.9}, "
+                      "hover: {start_offset_m: [0, 0, 0]}, randomization: {position_m: [0, 0, 0], "
+                      "velocity_m_s: [0, 0, 0], attitude_rad: [0, 0, 0]}}");
+  const RotorVector hover = env.model().hover_speeds_rad_s();
+  std::vector<double> a;
+  for (int e = 0; e < 2; ++e) a.insert(a.end(), hover.data(), hover.data() + hover.size());
+  env.reset(1);
+  EXPECT_EQ(env.batch().battery(0).soc, 0.9);
+  for (int t = 0; t < 20; ++t) env.step(a.data());
+  const double drawn = env.batch().battery(1).soc;
+  EXPECT_LT(drawn, 0.9);
+  EXPECT_GT(env.batch().battery(0).voltage_V, 0.0);
+  env.reset_env(0);
+  EXPECT_EQ(env.batch().battery(0).soc, 0.9);
+  EXPECT_EQ(env.batch().battery(1).soc, drawn);
+}
+
 // With normalized_actions, a_n in [-1, 1] means lo + (a_n + 1) / 2 (hi - lo): the same flight as
 // the physical action.
 TEST(VecEnvActions, NormalizedActionsMapOntoTheBox) {

@@ -59,6 +59,12 @@
 // stop drives its rotor's reference to zero, a stuck motor holds its speed. In double a lane
 // equals a Simulator with the same faults to round-off (tests/batch/batch_faults_test.cpp).
 //
+// Battery (config.battery; power/battery.hpp): every lane drains its own pack, full again at its
+// reset. As in the Simulator, a step's current comes from the speeds the lane flew with, and the
+// pack it leaves caps the speeds its motors head for next; lane by lane in double, with the
+// lane's own rotors (its parameters and its lost-effectiveness faults). In double a lane equals a
+// Simulator with the same pack to round-off (tests/batch/batch_battery_test.cpp).
+//
 // Trap: one BatchSimulator is stepped by one thread at a time (it says so, SimulationError, if
 // two try); its own pool does the parallel work.
 
@@ -236,6 +242,8 @@ class BatchSimulator {
   std::int64_t step_count(int lane) const { return step_count_[lane_index(lane)]; }
   const std::int64_t* step_count_data() const { return step_count_.data(); }
   const ContactState& contact(int lane) const { return contact_[lane_index(lane)]; }
+  /// The lane's pack (config().battery.enabled; otherwise a full pack that is never drawn).
+  const BatteryState& battery(int lane) const { return battery_[lane_index(lane)]; }
 
   /// The arrays (structure of arrays, see the top of this file). Writable between steps.
   T* state_data() { return state_.data(); }
@@ -299,6 +307,11 @@ class BatchSimulator {
   std::vector<std::uint32_t> fault_active_;
   std::vector<std::uint8_t> fault_stage_;
   AlignedArray<T> stuck_speed_;
+
+  // Battery: each lane's pack, and (only with a battery) each lane's rotors as its kernel has
+  // them, for the shaft power and the speed cap.
+  std::vector<BatteryState> battery_;
+  std::vector<VehicleModelTpl<double>> lane_model_;
 
   // Parameters: one value per parameter and lane; a pack whose lanes changed is rebuilt before
   // the next step.
