@@ -99,6 +99,14 @@ Eigen::VectorXd row_of(const py::array_t<double, py::array::c_style | py::array:
                         std::to_string(a.ndim()) + " dimensions");
 }
 
+/// (N,) copy of one field of every lane's pack.
+template <class T>
+py::array_t<double> battery_field(const BatchSimulator<T>& b, double BatteryState::*field) {
+  py::array_t<double> a(b.size());
+  for (int l = 0; l < b.size(); ++l) a.mutable_at(l) = b.battery(l).*field;
+  return a;
+}
+
 template <class T>
 void bind_one(py::module_& m, const char* class_name, const char* dtype) {
   using B = BatchSimulator<T>;
@@ -225,20 +233,11 @@ void bind_one(py::module_& m, const char* class_name, const char* dtype) {
           "battery", [](const B& b, int lane) { return b.battery(lane); }, py::arg("lane"),
           "The lane's pack (config.battery; full again at the lane's reset): a BatteryState.")
       .def(
-          "battery_soc",
-          [](const B& b) {
-            py::array_t<double> a(b.size());
-            for (int l = 0; l < b.size(); ++l) a.mutable_at(l) = b.battery(l).soc;
-            return a;
-          },
+          "battery_soc", [](const B& b) { return battery_field(b, &BatteryState::soc); },
           "(N,) state of charge of each lane's pack.")
       .def(
           "battery_voltage_V",
-          [](const B& b) {
-            py::array_t<double> a(b.size());
-            for (int l = 0; l < b.size(); ++l) a.mutable_at(l) = b.battery(l).voltage_V;
-            return a;
-          },
+          [](const B& b) { return battery_field(b, &BatteryState::voltage_V); },
           "(N,) terminal voltage of each lane's pack over its last step, V (0 once cut off).")
       .def(
           "in_contact",

@@ -1,8 +1,8 @@
 // The battery in the batched engine (BatchSimulator with SimConfig::battery): every lane drains
 // its own pack and equals a Simulator with the same pack to round-off, while the sag caps its
-// rotors and when it cuts off (also with a lost-effectiveness fault, whose thrust the shaft power
-// follows); a lane reset gives it a full pack; results are bitwise independent of threads and
-// batch size.
+// rotors and when it cuts off (also with a lost-effectiveness fault and with a lane's own thrust
+// curve, both of which the shaft power follows); a lane reset gives it a full pack; results are
+// bitwise independent of threads and batch size.
 
 #include <gtest/gtest.h>
 
@@ -42,9 +42,16 @@ TEST(BatchBattery, EveryLaneEqualsASimulatorWithTheSamePack) {
   const SimConfig c = battery_config();
   constexpr int kLanes = 5, kSteps = 3000;
   BatchSimulator<double> batch(model, c, kLanes, 2);
+  // Lane 2 has its own thrust curve (K1 8 % up); its Simulator flies the edited model.
+  constexpr int kEdited = 2;
+  const double k1 = 1.08 * parameter_value(model->parameters(), ModelParameter::kThrustK1);
+  batch.set_parameter(ModelParameter::kThrustK1, kEdited, k1);
+  VehicleSpec spec = model->spec();
+  set_parameter_value(spec, ModelParameter::kThrustK1, k1);
+  const auto edited = std::make_shared<const VehicleModel>(spec);
   std::vector<Simulator> sims;
   for (int l = 0; l < kLanes; ++l) {
-    sims.emplace_back(model, c);
+    sims.emplace_back(l == kEdited ? edited : model, c);
     batch.reset(l, start_of(l), model->hover_speeds_rad_s());
     batch.set_rotor_speed_reference(l, reference_of(*model, l));
     sims.back().reset(start_of(l), model->hover_speeds_rad_s());

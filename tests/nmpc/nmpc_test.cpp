@@ -16,6 +16,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <sstream>
 #include <string>
@@ -486,6 +487,15 @@ TEST(NmpcConfig, BadOptionsAreNamed) {
   o = small_options();
   o.max_iterations = -1;
   EXPECT_NE(error(o, 1000.0).find("nmpc: max_iterations"), std::string::npos);
+  o = small_options();
+  o.moment_observer_time_constant_s = -0.05;
+  EXPECT_NE(error(o, 1000.0).find("nmpc: moment_observer_time_constant_s: expected a finite number "
+                                  ">= 0 (0 = off), got -0.05"),
+            std::string::npos);
+  o = small_options();
+  o.max_moment_disturbance_Nm = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(error(o, 1000.0).find("nmpc: max_moment_disturbance_Nm: expected a finite number >= 0"),
+            std::string::npos);
 }
 
 }  // namespace
