@@ -144,12 +144,16 @@ class RunObserver final : public LoopObserver {
       updates_seen_ = loop.control_updates();
     }
     if (sim.step_count() % e_.log.every_n_steps == 0) write_row(loop);
+    if (progress_ && observed_++ % kProgressEverySteps == 0) progress_(sim.time_s(), e_.duration_s);
   }
 
   void finish(const ClosedLoop& loop, const StepResult& result) override {
     // A failed run also logs its last good state, for diagnosis.
     if (!result.ok() && logged_step_ != loop.simulator().step_count()) write_row(loop);
+    if (progress_) progress_(loop.simulator().time_s(), e_.duration_s);
   }
+
+  void set_progress(RunProgressFn progress) { progress_ = std::move(progress); }
 
   std::optional<EstimationSummary> estimation_summary() const {
     if (sensing_ == nullptr || sensing_->fusion() == nullptr) return std::nullopt;
@@ -280,6 +284,8 @@ class RunObserver final : public LoopObserver {
   std::vector<std::string> diag_names_;
   std::vector<double> diag_now_;
   std::vector<std::vector<double>> diag_values_;  // finite values per diagnostic, every update
+  RunProgressFn progress_;
+  std::int64_t observed_ = 0;
 };
 
 }  // namespace
@@ -453,25 +459,28 @@ std::optional<std::string> hash_if_same_model(const std::string& path, const Veh
 }
 
 RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
-               const std::string& out_dir, bool overwrite, std::optional<std::string> model_hash);
+               const std::string& out_dir, bool overwrite, std::optional<std::string> model_hash,
+               const RunProgressFn& progress);
 
 }  // namespace
 
-RunSummary run_experiment(const Experiment& e, const std::string& out_dir, bool overwrite) {
+RunSummary run_experiment(const Experiment& e, const std::string& out_dir, bool overwrite,
+                          const RunProgressFn& progress) {
   validate(e);
   // Read once: the model flown is exactly the text hashed.
   const std::string text = read_text_file(e.model_path, "model file");
   auto model =
       std::make_shared<const VehicleModel>(VehicleModel(parse_vehicle_spec(text, e.model_path)));
-  return run(e, std::move(model), out_dir, overwrite, content_hash(text));
+  return run(e, std::move(model), out_dir, overwrite, content_hash(text), progress);
 }
 
 RunSummary run_experiment(const Experiment& e, std::shared_ptr<const VehicleModel> model,
-                          const std::string& out_dir, bool overwrite) {
+                          const std::string& out_dir, bool overwrite,
+                          const RunProgressFn& progress) {
   require(model != nullptr, e.source, ": run_experiment: the model is null");
   validate(e);
   std::optional<std::string> hash = hash_if_same_model(e.model_path, *model);
-  return run(e, std::move(model), out_dir, overwrite, std::move(hash));
+  return run(e, std::move(model), out_dir, overwrite, std::move(hash), progress);
 }
 
 namespace app_detail {
@@ -623,6 +632,9 @@ VehicleRun::~VehicleRun() = default;
 Simulator& VehicleRun::simulator() { return impl_->sim; }
 ClosedLoop& VehicleRun::loop() { return *impl_->loop; }
 LoopObserver& VehicleRun::observer() { return *impl_->observer; }
+void VehicleRun::set_progress(RunProgressFn progress) {
+  impl_->observer->set_progress(std::move(progress));
+}
 const Experiment& VehicleRun::experiment() const { return impl_->e; }
 
 StepResult VehicleRun::fly() { return impl_->loop->run(impl_->e.duration_s, &*impl_->observer); }
@@ -677,8 +689,10 @@ RunSummary VehicleRun::finish(const StepResult& result, const std::string& colli
 namespace {
 
 RunSummary run(const Experiment& e, std::shared_ptr<const VehicleModel> model,
-               const std::string& out_dir, bool overwrite, std::optional<std::string> model_hash) {
+               const std::string& out_dir, bool overwrite, std::optional<std::string> model_hash,
+               const RunProgressFn& progress) {
   app_detail::VehicleRun run(e, std::move(model), out_dir, overwrite, std::move(model_hash));
+  run.set_progress(progress);
   const StepResult result = run.fly();
   return run.finish(result);
 }

@@ -43,7 +43,7 @@ class DownwashStatistics final : public LoopObserver {
 }  // namespace
 
 FleetRunSummary run_fleet_experiment(const FleetExperiment& f, const std::string& out_dir,
-                                     bool overwrite) {
+                                     bool overwrite, const RunProgressFn& progress) {
   require(!f.vehicles.empty(), f.source, ": vehicles: expected at least one vehicle");
   Fleet fleet(f.downwash);  // checks the settings
   OutputFolder out(out_dir, {"fleet_summary.json"}, {f.source}, overwrite, "fleet run");
@@ -75,6 +75,8 @@ FleetRunSummary run_fleet_experiment(const FleetExperiment& f, const std::string
                        "' start in contact (their collision spheres overlap: centres closer than ",
                        fleet.contact_distance_m(i, j), " m)"));
   }
+  // The vehicles step in lockstep: the first one's clock is the fleet's.
+  runs.front()->set_progress(progress);
   const auto start = std::chrono::steady_clock::now();
   const FleetResult result = fleet.run(f.duration_s);
   s.wall_clock_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

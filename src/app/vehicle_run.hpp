@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "dronetwin/app/progress.hpp"
 #include "dronetwin/app/run_experiment.hpp"
 #include "dronetwin/control/closed_loop.hpp"
 
@@ -35,6 +36,8 @@ class VehicleRun {
   ClosedLoop& loop();
   LoopObserver& observer();
   const Experiment& experiment() const;
+  /// Told the run's progress (app/progress.hpp) as it flies; none by default.
+  void set_progress(RunProgressFn progress);
 
   /// ClosedLoop::run() over the experiment's duration, shown to the observer.
   StepResult fly();

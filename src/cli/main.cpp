@@ -1,6 +1,7 @@
 // The `dronetwin` command-line tool.
 //
 //   dronetwin run EXPERIMENT.yaml --out DIR [--seed N] [--duration S] [--real-time] [--quiet]
+//                 [--progress | --no-progress]
 //   dronetwin info MODEL.yaml
 //   dronetwin import crazypad|ulog ...; dronetwin identify stand|vertical ...
 //   (real_data_commands.hpp) dronetwin --version
@@ -29,6 +30,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "dronetwin/app/progress.hpp"
 #include "dronetwin/app/run_experiment.hpp"
 #include "dronetwin/app/run_fleet.hpp"
 #include "dronetwin/config/experiment.hpp"
@@ -74,11 +76,22 @@ struct RunOptions {
   std::string seed;
   double duration_s = 0.0;
   bool quiet = false;
+  bool progress = false;
+  bool no_progress = false;
   bool real_time = false;
   bool force = false;
   bool seed_given = false;
   bool duration_given = false;
 };
+
+/// The run's bar on stderr: on a terminal once the run takes 2 s, always with --progress, never
+/// with --no-progress or --quiet.
+ProgressBar progress_bar(const RunOptions& o, const std::string& label) {
+  const ProgressBar::Mode mode = o.quiet || o.no_progress ? ProgressBar::Mode::kNever
+                                 : o.progress             ? ProgressBar::Mode::kAlways
+                                                          : ProgressBar::Mode::kAuto;
+  return ProgressBar(std::cerr, mode, isatty(STDERR_FILENO) == 1, label);
+}
 
 void print_summary(const RunSummary& s) {
   using namespace state_index;
@@ -145,7 +158,9 @@ int run_fleet_command(const RunOptions& o, const std::string& text) {
     f.duration_s = o.duration_s;
     for (FleetVehicleSpec& v : f.vehicles) v.experiment.duration_s = o.duration_s;
   }
-  const FleetRunSummary s = run_fleet_experiment(f, o.out_dir, o.force);
+  ProgressBar bar = progress_bar(o, f.name);
+  const FleetRunSummary s = run_fleet_experiment(f, o.out_dir, o.force, bar.callback());
+  bar.finish();
   if (!o.quiet) {
     std::cout << s.experiment_name << ": " << status_name(s.status) << ", " << s.steps << " of "
               << s.steps_requested << " lockstep steps (" << s.duration_s << " s simulated) in "
@@ -193,7 +208,9 @@ int run_command(const RunOptions& o) {
             input_type_name(e.input), "'");
     loop->real_time = true;
   }
-  const RunSummary s = run_experiment(e, o.out_dir, o.force);
+  ProgressBar bar = progress_bar(o, e.name);
+  const RunSummary s = run_experiment(e, o.out_dir, o.force, bar.callback());
+  bar.finish();
   for (const std::string& w : s.warnings) std::cerr << "warning: " << w << "\n";
   if (!o.quiet) print_summary(s);
   if (!s.ok()) {
@@ -335,6 +352,11 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--real-time", run.real_time,
                     "Pace a closed-loop run at real time (overrides the experiment's real_time)");
   run_cmd->add_flag("--quiet,-q", run.quiet, "Print nothing on success");
+  CLI::Option* progress = run_cmd->add_flag("--progress", run.progress,
+                                            "Show a progress bar on stderr from the start "
+                                            "(default: on a terminal, once a run takes 2 s)");
+  run_cmd->add_flag("--no-progress", run.no_progress, "Never show a progress bar")
+      ->excludes(progress);
   run_cmd->add_flag("--force", run.force,
                     "Replace the log and summary of an earlier run in the output directory");
 

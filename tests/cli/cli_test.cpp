@@ -223,6 +223,26 @@ TEST_F(Cli, DivergedRunExitsThreeAndStillWritesItsFiles) {
   EXPECT_EQ(static_cast<double>(log.rows()), steps + 1.0);
 }
 
+TEST_F(Cli, ProgressBarOnlyWhereAsked) {
+  // stderr is a file here, as in a CI log: no bar by default.
+  CliResult r = run_experiment(kExperiments + "freefall.yaml", "auto", "--duration 0.5");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find('%'), std::string::npos) << r.err;
+  // Forced: a line per second of wall clock and the last one at 100 %, 0.5 of 0.5 s simulated.
+  r = run_experiment(kExperiments + "freefall.yaml", "forced", "--duration 0.5 --progress");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("freefall ["), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("100%  0.5/0.5 s"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("freefall: ok"), std::string::npos) << "the summary still goes to stdout";
+  // --quiet wins; --progress with --no-progress is a usage error naming both.
+  r = run_experiment(kExperiments + "freefall.yaml", "quiet", "--duration 0.5 --progress -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  r = run_experiment(kExperiments + "freefall.yaml", "both", "--progress --no-progress");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--no-progress"), std::string::npos) << r.err;
+}
+
 TEST_F(Cli, OverridesAndUsage) {
   CliResult r = run_experiment(kExperiments + "freefall.yaml", "o", "--duration 0.1 --seed 5 -q");
   ASSERT_EQ(r.exit_code, 0) << r.err;

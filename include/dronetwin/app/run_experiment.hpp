@@ -33,6 +33,7 @@
 #include <string_view>
 #include <vector>
 
+#include "dronetwin/app/progress.hpp"
 #include "dronetwin/config/experiment.hpp"
 #include "dronetwin/core/types.hpp"
 #include "dronetwin/core/version.hpp"
@@ -160,14 +161,16 @@ struct RunSummary {
 /// names and moved into place when the run ends (logging/output_folder.hpp), and an earlier
 /// run's files are replaced only with `overwrite` (the CLI's --force); an output that is one of
 /// the inputs is always refused.
+/// `progress`, when given, is told how far the run has come (app/progress.hpp).
 RunSummary run_experiment(const Experiment& experiment, const std::string& out_dir,
-                          bool overwrite = false);
+                          bool overwrite = false, const RunProgressFn& progress = {});
 
 /// Same with an already loaded model (sweeps over seeds or settings load it once);
 /// experiment.model_path is only reported. The sidecar's model_hash is that file's hash if the
 /// file describes the same model (same numbers and name), else null.
 RunSummary run_experiment(const Experiment& experiment, std::shared_ptr<const VehicleModel> model,
-                          const std::string& out_dir, bool overwrite = false);
+                          const std::string& out_dir, bool overwrite = false,
+                          const RunProgressFn& progress = {});
 
 /// The JSON text of summary.json.
 std::string summary_to_json(const RunSummary& summary);

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "dronetwin/app/progress.hpp"
 #include "dronetwin/app/run_experiment.hpp"
 #include "dronetwin/config/fleet_experiment.hpp"
 
@@ -48,10 +49,10 @@ struct FleetRunSummary {
   bool ok() const { return status == StepStatus::kOk; }
 };
 
-/// Writes out_dir/<vehicle>/ for each vehicle and out_dir/fleet_summary.json; `overwrite` as
-/// for run_experiment().
+/// Writes out_dir/<vehicle>/ for each vehicle and out_dir/fleet_summary.json; `overwrite` and
+/// `progress` as for run_experiment().
 FleetRunSummary run_fleet_experiment(const FleetExperiment& fleet, const std::string& out_dir,
-                                     bool overwrite = false);
+                                     bool overwrite = false, const RunProgressFn& progress = {});
 
 std::string fleet_summary_to_json(const FleetRunSummary& summary);
 

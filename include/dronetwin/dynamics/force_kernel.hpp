@@ -1,6 +1,7 @@
 #pragma once
 // The force kernel: the complete multirotor force model of thesis Sec. 2.3 (Eq. 2.22-2.42), the
-// one implementation the simulator, the batch, the NMPC and the fits all evaluate. It adds up the
+// one implementation the simulator, the batch and the fits all evaluate (the NMPC plans on its own
+// reduced model, nmpc/nmpc_model.hpp, Eq. 3.23). It adds up the
 // terms of rotor.hpp, gyroscopic.hpp and body_drag.hpp in three stages, because over a physics
 // step the rotor speeds are held (zero-order hold, thesis Alg. 1-2):
 //
