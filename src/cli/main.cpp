@@ -5,6 +5,7 @@
 //   dronetwin info MODEL.yaml
 //   dronetwin import crazypad|ulog ...; dronetwin identify stand|vertical ...
 //   (real_data_commands.hpp) dronetwin --version
+//   dronetwin train|evaluate|sweep|export ...   (Python: dronetwin.train, .sweep, .export)
 //
 // Exit codes: 0 success, 1 internal error, 2 bad input (malformed file, bad option; the message
 // goes to stderr as "error: ..."), 3 the run failed (diverged or non-finite state; log and
@@ -316,18 +317,21 @@ int plot_command(const std::string& run_dir, const std::string& out_dir) {
   return run_python("plot", args, module_dir);
 }
 
-// `dronetwin train ...` and `dronetwin evaluate ...`: the trainer is Python (torch), so these run
-// `python3 -m dronetwin.train <command> ...` with every argument passed on. The package must hold
-// the compiled extension: the build tree's (DRONETWIN_PYTHON_BUILD_DIR) when it has one, else the
+// Commands written in Python: `dronetwin train ...` and `dronetwin evaluate ...` (the trainer,
+// torch) run `python3 -m dronetwin.train <command> ...`, `dronetwin sweep ...` (Dask) runs
+// `python3 -m dronetwin.sweep ...`, with every argument passed on. The package must hold the
+// compiled extension: the build tree's (DRONETWIN_PYTHON_BUILD_DIR) when it has one, else the
 // installed package (on Debian's sys.path); DRONETWIN_PYTHONPATH overrides both.
-int training_command(const std::string& command, const std::vector<std::string>& rest) {
+int python_module_command(const std::string& command, const std::string& module,
+                          std::vector<std::string> args, const std::vector<std::string>& rest) {
   std::string module_dir;
   if (const char* p = std::getenv("DRONETWIN_PYTHONPATH")) {
     module_dir = p;
-  } else if (std::filesystem::exists(DRONETWIN_PYTHON_BUILD_DIR "/dronetwin/train.py")) {
+  } else if (std::filesystem::exists(std::filesystem::path(DRONETWIN_PYTHON_BUILD_DIR) /
+                                     "dronetwin" / (module + ".py"))) {
     module_dir = DRONETWIN_PYTHON_BUILD_DIR;
   }
-  std::vector<std::string> args{"-m", "dronetwin.train", command};
+  args.insert(args.begin(), {"-m", "dronetwin." + module});
   args.insert(args.end(), rest.begin(), rest.end());
   return run_python(command, args, module_dir);
 }
@@ -379,6 +383,13 @@ int main(int argc, char** argv) {
   CLI::App* evaluate_cmd = app.add_subcommand(
       "evaluate", "Evaluate a policy file: evaluate POLICY --config CONFIG [--episodes N]");
   evaluate_cmd->prefix_command()->set_help_flag();
+  CLI::App* sweep_cmd = app.add_subcommand(
+      "sweep",
+      "Run a sweep file on Dask: sweep SWEEP.yaml --out DIR [--scheduler ADDR] [--workers N]");
+  sweep_cmd->prefix_command()->set_help_flag();
+  CLI::App* export_cmd = app.add_subcommand(
+      "export", "Write a run's log as a ROS 1 bag: export RUN_DIR --bag FILE.bag (docs/ros.md)");
+  export_cmd->prefix_command()->set_help_flag();
 
   dronetwin::cli::RealDataCommands real_data;
   dronetwin::cli::register_real_data_commands(app, real_data);
@@ -389,9 +400,11 @@ int main(int argc, char** argv) {
   if (argc > 1 && argv[1][0] != '-') {
     const std::string_view command = argv[1];
     if (command != "run" && command != "info" && command != "plot" && command != "import" &&
-        command != "identify" && command != "fit" && command != "train" && command != "evaluate") {
+        command != "identify" && command != "fit" && command != "train" && command != "evaluate" &&
+        command != "sweep" && command != "export") {
       std::cerr << "error: unknown command '" << command
-                << "' (valid commands: run, info, plot, import, identify, fit, train, evaluate)\n"
+                << "' (valid commands: run, info, plot, import, identify, fit, train, evaluate, "
+                   "sweep, export)\n"
                 << "Run with --help for more information.\n";
       return kExitBadInput;
     }
@@ -410,8 +423,12 @@ int main(int argc, char** argv) {
       return run_command(run);
     }
     if (*plot_cmd) return plot_command(plot_dir, plot_out);
-    if (*train_cmd) return training_command("train", train_cmd->remaining());
-    if (*evaluate_cmd) return training_command("evaluate", evaluate_cmd->remaining());
+    if (*train_cmd)
+      return python_module_command("train", "train", {"train"}, train_cmd->remaining());
+    if (*evaluate_cmd)
+      return python_module_command("evaluate", "train", {"evaluate"}, evaluate_cmd->remaining());
+    if (*sweep_cmd) return python_module_command("sweep", "sweep", {}, sweep_cmd->remaining());
+    if (*export_cmd) return python_module_command("export", "export", {}, export_cmd->remaining());
     if (*fit.cmd) return dronetwin::cli::run_fit_command(fit);
     if (dronetwin::cli::real_data_command_selected(real_data)) {
       return dronetwin::cli::run_real_data_command(real_data);
