@@ -20,7 +20,6 @@ multi-machine use: docs/sweeps.md.
 from __future__ import annotations
 
 import argparse
-import copy
 import csv
 import io
 import math
@@ -33,6 +32,7 @@ from dataclasses import field as dataclass_field
 import numpy as np
 import yaml
 
+MAX_POINTS = 100000  # a larger sweep is split into several files, not held in memory at once
 SWEEP_KEYS = {"name", "description", "experiment", "sampling", "samples", "seed", "axes"}
 AXIS_KEYS = {"field", "values", "range", "count"}
 # Columns of results.csv after the axes, from the RunSummary.
@@ -124,9 +124,10 @@ def parse_sweep(text, source):
     samples = doc.get("samples", 0)
     seed = doc.get("seed", 0)
     if sampling == "random":
-        if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        if (isinstance(samples, bool) or not isinstance(samples, int) or samples < 1
+                or samples > MAX_POINTS):
             _fail(source, "samples",
-                  f"expected an integer >= 1 for random sampling, got {samples!r}")
+                  f"expected an integer in [1, {MAX_POINTS}] for random sampling, got {samples!r}")
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
             _fail(source, "seed", f"expected an integer >= 0, got {seed!r}")
     else:
@@ -188,8 +189,11 @@ def parse_sweep(text, source):
         axes.append(axis)
     sweep = Sweep(name=doc["name"], source=source, experiment_path=experiment, sampling=sampling,
                   axes=axes, samples=samples, seed=seed, description=doc.get("description", ""))
-    if sampling == "grid" and len(sweep.points()) > 100000:
-        _fail(source, "axes", f"the grid has {len(sweep.points())} points; at most 100000")
+    # The product of the axes' lengths, not the points themselves: a mistyped grid must not fill
+    # the memory before it is refused.
+    grid_size = math.prod(len(a.values) for a in axes)
+    if sampling == "grid" and grid_size > MAX_POINTS:
+        _fail(source, "axes", f"the grid has {grid_size} points; at most {MAX_POINTS}")
     return sweep
 
 
@@ -218,7 +222,6 @@ def point_experiment_text(sweep, point):
     """The YAML text of a point's experiment: the sweep's experiment with the point's fields."""
     with open(sweep.experiment_path, encoding="utf-8") as f:
         doc = yaml.safe_load(f)
-    doc = copy.deepcopy(doc)
     for name, value in point.items():
         if not name.startswith("model."):
             _set_field(doc, name, value, sweep.experiment_path)

@@ -123,6 +123,17 @@ axes:
      "axes[1].field: 'duration_s' is already an axis"),
     ("sampling: random\naxes: [{field: duration_s, values: [1]}]", "samples: expected an integer"),
     ("axes: []", "axes: expected a non-empty list"),
+    ("sampling: sobol\naxes: [{field: duration_s, values: [1]}]",
+     "sampling: expected 'grid' or 'random', got 'sobol'"),
+    ("axes: [{field: model.mass, range: [2.0, 1.0], count: 3}]",
+     "axes[0].range: expected low < high, got [2.0, 1.0]"),
+    ("sampling: random\nsamples: 100001\naxes: [{field: duration_s, values: [1]}]",
+     "samples: expected an integer in [1, 100000]"),
+    # 1000^3 points: refused from the axes' lengths, without building them.
+    ("axes: [{field: model.mass, range: [1, 2], count: 1000},"
+     " {field: model.thrust_k1, range: [1, 2], count: 1000},"
+     " {field: duration_s, range: [1, 2], count: 1000}]",
+     "axes: the grid has 1000000000 points; at most 100000"),
 ])
 def test_bad_sweep_files_name_the_field(tmp_path, body, where):
     experiment = source_path("config", "experiments", "freefall.yaml")
@@ -130,6 +141,15 @@ def test_bad_sweep_files_name_the_field(tmp_path, body, where):
     with pytest.raises(sw.SweepError) as e:
         sw.parse_sweep(text, "bad.yaml")
     assert str(e.value).startswith("bad.yaml: ") and where in str(e.value)
+
+
+def test_a_missing_experiment_file_and_a_bad_worker_count_are_named(tmp_path):
+    with pytest.raises(sw.SweepError, match=r"bad.yaml: experiment: no such file: .*nowhere.yaml"):
+        sw.parse_sweep("name: x\nexperiment: nowhere.yaml\naxes: [{field: seed, values: [1]}]",
+                       str(tmp_path / "bad.yaml"))
+    with pytest.raises(sw.SweepError, match=r"--workers: expected an integer >= 1, got 0"):
+        sw.run_sweep(sw.load_sweep(SWEEP), str(tmp_path / "out"), workers=0)
+    assert not (tmp_path / "out").exists()
 
 
 def test_an_existing_output_folder_is_never_written_into(cli, tmp_path):
