@@ -108,10 +108,11 @@ std::optional<Include> include_of(const std::string& line) {
 TEST(Layering, EveryIncludeGoesDownTheDocumentedLayerOrder) {
   const Layers layers = read_layers();
   // Outside libraries by the start of their include path.
-  const std::map<std::string, std::string> external_name = {{"yaml-cpp/", "yaml-cpp"},
-                                                            {"ceres/", "ceres"},
-                                                            {"pybind11/", "pybind11"},
-                                                            {"experimental/simd", "simd"}};
+  const std::map<std::string, std::string> external_name = {
+      {"yaml-cpp/", "yaml-cpp"},     {"ceres/", "ceres"},       {"pybind11/", "pybind11"},
+      {"experimental/simd", "simd"}, {"ros/", "ros"},           {"nav_msgs/", "ros"},
+      {"sensor_msgs/", "ros"},       {"geometry_msgs/", "ros"}, {"std_msgs/", "ros"},
+      {"tf2_msgs/", "ros"},          {"rosgraph_msgs/", "ros"}, {"visualization_msgs/", "ros"}};
   const std::string own_prefix = "dronetwin/";
   std::size_t includes_checked = 0;
   for (const Source& s : sources()) {
