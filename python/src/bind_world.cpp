@@ -95,6 +95,25 @@ void bind_world(py::module_& m) {
                                return out;
                              })
       .def_property_readonly(
+          "gates",
+          [](const Track& t) {
+            py::list out;
+            for (const Gate& g : t.gates) {
+              py::list corners, axes;
+              for (const Vec3& c : g.bar_corners()) corners.append(copy_of(c));
+              for (int col = 0; col < 3; ++col) axes.append(copy_of(Vec3(g.axes.col(col))));
+              out.append(py::dict(py::arg("name") = g.name, py::arg("center") = copy_of(g.center_m),
+                                  py::arg("axes") = axes,
+                                  py::arg("width_m") = g.width_m, py::arg("height_m") = g.height_m,
+                                  py::arg("frame_width_m") = g.frame_width_m,
+                                  py::arg("bar_corners") = corners));
+            }
+            return out;
+          },
+          "One dict per gate in racing order: name, center (m), axes (the passage direction, the "
+          "width axis and the up axis), width_m, height_m, frame_width_m and bar_corners (the "
+          "four corners where the frame's bars' axes meet, m).")
+      .def_property_readonly(
           "obstacles",
           [](const Track& t) {
             py::list out;

@@ -390,6 +390,10 @@ int main(int argc, char** argv) {
   CLI::App* export_cmd = app.add_subcommand(
       "export", "Write a run's log as a ROS 1 bag: export RUN_DIR --bag FILE.bag (docs/ros.md)");
   export_cmd->prefix_command()->set_help_flag();
+  CLI::App* view_cmd = app.add_subcommand(
+      "view",
+      "Replay a run in the browser: view RUN_DIR [--out PAGE.html] [--port P] (docs/viewer.md)");
+  view_cmd->prefix_command()->set_help_flag();
 
   dronetwin::cli::RealDataCommands real_data;
   dronetwin::cli::register_real_data_commands(app, real_data);
@@ -401,10 +405,10 @@ int main(int argc, char** argv) {
     const std::string_view command = argv[1];
     if (command != "run" && command != "info" && command != "plot" && command != "import" &&
         command != "identify" && command != "fit" && command != "train" && command != "evaluate" &&
-        command != "sweep" && command != "export") {
+        command != "sweep" && command != "export" && command != "view") {
       std::cerr << "error: unknown command '" << command
                 << "' (valid commands: run, info, plot, import, identify, fit, train, evaluate, "
-                   "sweep, export)\n"
+                   "sweep, export, view)\n"
                 << "Run with --help for more information.\n";
       return kExitBadInput;
     }
@@ -429,6 +433,7 @@ int main(int argc, char** argv) {
       return python_module_command("evaluate", "train", {"evaluate"}, evaluate_cmd->remaining());
     if (*sweep_cmd) return python_module_command("sweep", "sweep", {}, sweep_cmd->remaining());
     if (*export_cmd) return python_module_command("export", "export", {}, export_cmd->remaining());
+    if (*view_cmd) return python_module_command("view", "view", {}, view_cmd->remaining());
     if (*fit.cmd) return dronetwin::cli::run_fit_command(fit);
     if (dronetwin::cli::real_data_command_selected(real_data)) {
       return dronetwin::cli::run_real_data_command(real_data);
