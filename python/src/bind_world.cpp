@@ -103,8 +103,8 @@ void bind_world(py::module_& m) {
               for (const Vec3& c : g.bar_corners()) corners.append(copy_of(c));
               for (int col = 0; col < 3; ++col) axes.append(copy_of(Vec3(g.axes.col(col))));
               out.append(py::dict(py::arg("name") = g.name, py::arg("center") = copy_of(g.center_m),
-                                  py::arg("axes") = axes,
-                                  py::arg("width_m") = g.width_m, py::arg("height_m") = g.height_m,
+                                  py::arg("axes") = axes, py::arg("width_m") = g.width_m,
+                                  py::arg("height_m") = g.height_m,
                                   py::arg("frame_width_m") = g.frame_width_m,
                                   py::arg("bar_corners") = corners));
             }
