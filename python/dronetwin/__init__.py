@@ -65,6 +65,19 @@ def read_log(path, as_frame=False, metadata=False):
     return log, meta
 
 
+def run_vehicle_folders(run_dir):
+    """[(vehicle name, folder holding its log.csv)] of a run folder: one (None, run_dir) for a
+    `dronetwin run` folder, one per vehicle of its fleet_summary.json for a fleet run."""
+    fleet = _os.path.join(run_dir, "fleet_summary.json")
+    if not _os.path.isfile(fleet):
+        return [(None, run_dir)]
+    import json
+
+    with open(fleet, encoding="utf-8") as f:
+        summary = json.load(f)
+    return [(v["name"], _os.path.join(run_dir, v["name"])) for v in summary.get("vehicles", [])]
+
+
 def read_log_metadata(path):
     """The LogMetadata of a run log's JSON sidecar (``log.json``; docs/log-format.md).
 

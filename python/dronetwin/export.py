@@ -25,7 +25,6 @@ packages (python3-nav-msgs, python3-geometry-msgs, python3-std-msgs, python3-tf2
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import tempfile
@@ -152,16 +151,13 @@ def _write_vehicle(R, bag, log, ns, child):
 
 def _vehicles(run_dir):
     """[(namespace, child frame, log.csv path)] of a run or a fleet run folder."""
-    fleet = os.path.join(run_dir, "fleet_summary.json")
-    if os.path.isfile(fleet):
-        with open(fleet, encoding="utf-8") as f:
-            summary = json.load(f)
-        out = []
-        for v in summary.get("vehicles", []):
-            name = v["name"]
-            out.append((f"/{name}", f"{name}/base_link", os.path.join(run_dir, name, "log.csv")))
-        return out
-    return [("", "base_link", os.path.join(run_dir, "log.csv"))]
+    from . import run_vehicle_folders
+
+    out = []
+    for name, folder in run_vehicle_folders(run_dir):
+        ns, child = (f"/{name}", f"{name}/base_link") if name else ("", "base_link")
+        out.append((ns, child, os.path.join(folder, "log.csv")))
+    return out
 
 
 def export_bag(run_dir, bag_path):

@@ -33,16 +33,6 @@ class ViewError(ValueError):
     """A run folder, page path or option that cannot be used: the message names it."""
 
 
-def _vehicle_folders(run_dir):
-    """[(name, folder)] of a run or a fleet run."""
-    fleet = os.path.join(run_dir, "fleet_summary.json")
-    if os.path.isfile(fleet):
-        with open(fleet, encoding="utf-8") as f:
-            summary = json.load(f)
-        return [(v["name"], os.path.join(run_dir, v["name"])) for v in summary["vehicles"]]
-    return [(None, run_dir)]
-
-
 def _sample(n, max_frames):
     if n <= max_frames:
         return np.arange(n)
@@ -114,7 +104,9 @@ def run_data(run_dir, max_frames=5000):
     if not isinstance(max_frames, int) or max_frames < 2:
         raise ViewError(f"--max-frames: expected an integer >= 2, got {max_frames!r}")
     vehicles, scene_path = [], None
-    for name, folder in _vehicle_folders(run_dir):
+    from . import run_vehicle_folders
+
+    for name, folder in run_vehicle_folders(run_dir):
         vehicle, scene = _vehicle(name, folder, max_frames)
         vehicles.append(vehicle)
         scene_path = scene_path or scene

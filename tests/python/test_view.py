@@ -173,5 +173,8 @@ def test_bad_input_is_refused(run, page_path, tmp_path):
     out = subprocess.run([CLI, "view", str(empty), "--out", str(tmp_path / "p.html")],
                          capture_output=True, text=True)
     assert out.returncode == 2 and "log.csv" in out.stderr and not (tmp_path / "p.html").exists()
+    out = subprocess.run([CLI, "view", str(run), "--out", str(tmp_path / "no" / "p.html")],
+                         capture_output=True, text=True)
+    assert out.returncode == 2 and "does not exist" in out.stderr
     with pytest.raises(view.ViewError, match="max-frames"):
         view.run_data(str(run), max_frames=1)

@@ -278,6 +278,10 @@ def test_bad_inputs_end_with_their_exit_codes(ros_env, tmp_path):
     bad_offset = run_node(namespaced(ros_env, "offset"), experiment, "_time_offset_s:=-1",
                           timeout=60)
     assert bad_offset.returncode == 2 and "~time_offset_s" in bad_offset.stderr
+    for param, value in (("republish_period_s", "0"), ("real_time_factor", "-1"),
+                         ("wait_for_subscribers", "-1"), ("linger_s", "-1")):
+        bad = run_node(namespaced(ros_env, param), experiment, f"_{param}:={value}", timeout=60)
+        assert bad.returncode == 2 and f"~{param}: expected" in bad.stderr, (param, bad.stderr)
     too_many = run_node(namespaced(ros_env, "args"), experiment, experiment, timeout=60)
     assert too_many.returncode == 2 and "at most one argument" in too_many.stderr
     # Nobody answers: lockstep gives up after the timeout and says on which topics it waited.
