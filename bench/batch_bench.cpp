@@ -14,6 +14,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <memory>
 
 #include "dronetwin/batch/batch_se3.hpp"
@@ -26,66 +27,98 @@ using namespace dronetwin;
 
 enum class Mode { kOpenLoop, kNoise, kSe3, kWindField, kFaults, kBattery };
 
+// One benchmark's batch, its inner loop and its restarts.
+template <class T>
+class Rig {
+ public:
+  Rig(int n, int threads, Mode mode)
+      : model_(std::make_shared<const VehicleModel>(
+            load_vehicle_model(std::string(DRONETWIN_SOURCE_DIR) + "/models/qdrone2.yaml"))),
+        n_(n),
+        mode_(mode),
+        batch_(model_, config(mode), n, threads),
+        se3_(model_, Se3Gains::thesis(), se3_options(), n) {
+    for (int l = 0; l < n; ++l) {
+      ReferencePoint r;
+      r.position_m = Vec3(0.5, -0.3, 1.0 + 1e-3 * l);
+      r.yaw_rad = 0.3;
+      se3_.set_reference(l, r);
+    }
+    hover_ = model_->hover_speeds_rad_s();
+    ref_ = hover_;
+    ref_[0] *= 1.001;  // a little asymmetry so the body moves and rotates
+    for (int l = 0; l < n; ++l) {
+      batch_.set_parameter(ModelParameter::kMass, l, model_->mass_kg() * (1.0 + 1e-4 * (l % 100)));
+      batch_.set_parameter(ModelParameter::kThrustK1, l,
+                           parameter_value(model_->parameters(), ModelParameter::kThrustK1) *
+                               (1.0 + 1e-4 * (l % 37)));
+    }
+    restart();
+  }
+
+  /// Open loop drifts: true when the lanes should be restarted (every 2 s of simulated time).
+  bool due() const { return simulated_ >= 2000 && mode_ != Mode::kSe3; }
+
+  void restart() {
+    for (int l = 0; l < n_; ++l) {
+      batch_.reset(l, Simulator::hover_state(Vec3(0, 0, 1.0 + 1e-3 * l)), hover_);
+      batch_.set_rotor_speed_reference(l, ref_);
+    }
+    simulated_ = 0;
+  }
+
+  int step(int steps) {
+    simulated_ += steps;
+    return mode_ == Mode::kSe3 ? batch_.step(steps, se3_) : batch_.step(steps);
+  }
+
+ private:
+  static SimConfig config(Mode mode) {
+    SimConfig cfg;
+    cfg.environment.wind_W_m_s << 1.0, -0.5, 0.0;  // non-zero air velocity: drag terms do work
+    cfg.noise.enabled = mode == Mode::kNoise;
+    if (mode == Mode::kWindField) {  // shear, a gust over the whole run, moderate turbulence
+      cfg.wind.shear.enabled = true;
+      cfg.wind.gusts[0] = {0.0, 10.0, Vec3(0.0, 1.0, 0.0)};
+      cfg.wind.num_gusts = 1;
+      cfg.wind.turbulence = TurbulenceSettings::of(TurbulenceSeverity::kModerate);
+    }
+    if (mode == Mode::kFaults) {
+      cfg.faults.rotor[0] = RotorFault{RotorFaultKind::kEffectiveness, 0, 0.5, 0.9};
+      cfg.faults.rotor[1] = RotorFault{RotorFaultKind::kStuck, 1, 1.0, 1.0};
+      cfg.faults.num_rotor_faults = 2;
+    }
+    if (mode == Mode::kBattery) cfg.battery.enabled = true;  // the 6S default, hover: no cap binds
+    return cfg;
+  }
+  static Se3Options se3_options() {
+    Se3Options options;
+    options.gravity_compensation = true;
+    options.max_tilt_rad = 0.6;
+    return options;
+  }
+
+  std::shared_ptr<const VehicleModel> model_;
+  int n_;
+  Mode mode_;
+  BatchSimulator<T> batch_;
+  BatchSe3Controller<T> se3_;
+  RotorVector hover_, ref_;
+  std::int64_t simulated_ = 0;
+};
+
 template <class T>
 void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
-  const auto model = std::make_shared<const VehicleModel>(
-      load_vehicle_model(std::string(DRONETWIN_SOURCE_DIR) + "/models/qdrone2.yaml"));
   const int n = static_cast<int>(state.range(0));
   const int steps = static_cast<int>(state.range(1));
-  const int threads = static_cast<int>(state.range(2));
-  SimConfig cfg;
-  cfg.environment.wind_W_m_s << 1.0, -0.5, 0.0;  // non-zero air velocity: drag terms do work
-  cfg.noise.enabled = mode == Mode::kNoise;
-  if (mode == Mode::kWindField) {  // shear, a gust over the whole run, moderate turbulence
-    cfg.wind.shear.enabled = true;
-    cfg.wind.gusts[0] = {0.0, 10.0, Vec3(0.0, 1.0, 0.0)};
-    cfg.wind.num_gusts = 1;
-    cfg.wind.turbulence = TurbulenceSettings::of(TurbulenceSeverity::kModerate);
-  }
-  if (mode == Mode::kFaults) {
-    cfg.faults.rotor[0] = RotorFault{RotorFaultKind::kEffectiveness, 0, 0.5, 0.9};
-    cfg.faults.rotor[1] = RotorFault{RotorFaultKind::kStuck, 1, 1.0, 1.0};
-    cfg.faults.num_rotor_faults = 2;
-  }
-  if (mode == Mode::kBattery) cfg.battery.enabled = true;  // the 6S default, hover: no cap binds
-  BatchSimulator<T> batch(model, cfg, n, threads);
-  Se3Options options;
-  options.gravity_compensation = true;
-  options.max_tilt_rad = 0.6;
-  BatchSe3Controller<T> se3(model, Se3Gains::thesis(), options, n);
-  for (int l = 0; l < n; ++l) {
-    ReferencePoint r;
-    r.position_m = Vec3(0.5, -0.3, 1.0 + 1e-3 * l);
-    r.yaw_rad = 0.3;
-    se3.set_reference(l, r);
-  }
-  const RotorVector hover = model->hover_speeds_rad_s();
-  RotorVector ref = hover;
-  ref[0] *= 1.001;  // a little asymmetry so the body moves and rotates
-  const auto start_all = [&] {
-    for (int l = 0; l < n; ++l) {
-      batch.reset(l, Simulator::hover_state(Vec3(0, 0, 1.0 + 1e-3 * l)), hover);
-      batch.set_rotor_speed_reference(l, ref);
-    }
-  };
-  for (int l = 0; l < n; ++l) {
-    batch.set_parameter(ModelParameter::kMass, l, model->mass_kg() * (1.0 + 1e-4 * (l % 100)));
-    batch.set_parameter(
-        ModelParameter::kThrustK1, l,
-        parameter_value(model->parameters(), ModelParameter::kThrustK1) * (1.0 + 1e-4 * (l % 37)));
-  }
-  start_all();
-  std::int64_t simulated = 0;
+  Rig<T> rig(n, static_cast<int>(state.range(2)), mode);
   for (auto _ : state) {
-    // Open loop drifts: restart every 2 s of simulated time, outside the measured time.
-    if (simulated >= 2000 && mode != Mode::kSe3) {
+    if (rig.due()) {
       state.PauseTiming();
-      start_all();
-      simulated = 0;
+      rig.restart();
       state.ResumeTiming();
     }
-    benchmark::DoNotOptimize(mode == Mode::kSe3 ? batch.step(steps, se3) : batch.step(steps));
-    simulated += steps;
+    benchmark::DoNotOptimize(rig.step(steps));
   }
   const double vehicle_steps = static_cast<double>(state.iterations()) * n * steps;
   state.counters["vehicle_steps/s"] =
@@ -93,6 +126,43 @@ void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
   // time / (vehicle steps / 1e9): nanoseconds per vehicle-step.
   state.counters["ns/vehicle_step"] = benchmark::Counter(
       vehicle_steps / 1e9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
+// Two-thread scaling measured so that the machine's speed cancels out: a 1-thread and a 2-thread
+// batch of the same lanes take turns call by call (the order alternating), each call timed on its
+// own, and `scaling` is the 1-thread time over the 2-thread time. On a shared virtual machine
+// the clock rate drifts by tens of percent within seconds, so the ratio of two separate benchmark
+// runs mixes that drift into the figure; interleaving the calls does not.
+template <class T>
+void scaling(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
+  const int n = static_cast<int>(state.range(0));
+  const int steps = static_cast<int>(state.range(1));
+  Rig<T> one(n, 1, mode), two(n, 2, mode);
+  using Clock = std::chrono::steady_clock;
+  Clock::duration time_one{}, time_two{};
+  bool one_first = true;
+  for (auto _ : state) {
+    if (one.due()) one.restart();
+    if (two.due()) two.restart();
+    const auto timed = [&](Rig<T>& rig) {
+      const auto start = Clock::now();
+      benchmark::DoNotOptimize(rig.step(steps));
+      return Clock::now() - start;
+    };
+    if (one_first) {
+      time_one += timed(one);
+      time_two += timed(two);
+    } else {
+      time_two += timed(two);
+      time_one += timed(one);
+    }
+    one_first = !one_first;
+  }
+  const double vehicle_steps = static_cast<double>(state.iterations()) * n * steps;
+  const auto seconds = [](Clock::duration d) { return std::chrono::duration<double>(d).count(); };
+  state.counters["scaling"] = seconds(time_one) / seconds(time_two);
+  state.counters["M_steps/s_1thread"] = vehicle_steps / seconds(time_one) / 1e6;
+  state.counters["M_steps/s_2threads"] = vehicle_steps / seconds(time_two) / 1e6;
 }
 
 void BM_BatchDouble(benchmark::State& s) { run<double>(s); }
@@ -104,6 +174,10 @@ void BM_BatchDoubleWindField(benchmark::State& s) { run<double>(s, Mode::kWindFi
 void BM_BatchFloatSe3(benchmark::State& s) { run<float>(s, Mode::kSe3); }
 void BM_BatchDoubleFaults(benchmark::State& s) { run<double>(s, Mode::kFaults); }
 void BM_BatchDoubleBattery(benchmark::State& s) { run<double>(s, Mode::kBattery); }
+
+void BM_ScalingDouble(benchmark::State& s) { scaling<double>(s); }
+void BM_ScalingFloat(benchmark::State& s) { scaling<float>(s); }
+void BM_ScalingDoubleSe3(benchmark::State& s) { scaling<double>(s, Mode::kSe3); }
 
 void sizes(benchmark::internal::Benchmark* b) {
   b->ArgNames({"N", "steps", "threads"});
@@ -122,6 +196,15 @@ BENCHMARK(BM_BatchFloatSe3)->Apply(sizes);
 BENCHMARK(BM_BatchDoubleWindField)->Apply(sizes);
 BENCHMARK(BM_BatchDoubleFaults)->Apply(sizes);
 BENCHMARK(BM_BatchDoubleBattery)->Apply(sizes);
+
+void scaling_sizes(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"N", "steps"});
+  for (int n : {1024, 16384})
+    for (int steps : {1, 10}) b->Args({n, steps});
+}
+BENCHMARK(BM_ScalingDouble)->Apply(scaling_sizes);
+BENCHMARK(BM_ScalingFloat)->Apply(scaling_sizes);
+BENCHMARK(BM_ScalingDoubleSe3)->Apply(scaling_sizes);
 
 }  // namespace
 

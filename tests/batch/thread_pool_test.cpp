@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -40,6 +41,31 @@ TEST(ThreadPool, UsesMoreThanOneThreadWhenItHasThem) {
     inside.fetch_sub(1);
   });
   EXPECT_EQ(most.load(), 2);
+}
+
+// A worker out of work polls for a while, then sleeps: the next loop must reach it either way,
+// and a pool must shut down from either state.
+TEST(ThreadPool, TheNextLoopReachesAWorkerThatPolledOrSlept) {
+  for (const auto pause : {std::chrono::microseconds(0), std::chrono::microseconds(20),
+                           std::chrono::microseconds(5000)}) {
+    ThreadPool pool(2);
+    for (int repeat = 0; repeat < 5; ++repeat) {
+      std::this_thread::sleep_for(pause);
+      std::atomic<int> inside{0}, most{0}, count{0};
+      pool.run(16, [&](int) {
+        const int now = inside.fetch_add(1) + 1;
+        int seen = most.load();
+        while (now > seen && !most.compare_exchange_weak(seen, now)) {
+        }
+        // Long enough that the worker, however late it wakes, finds tasks left.
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        inside.fetch_sub(1);
+        count.fetch_add(1);
+      });
+      EXPECT_EQ(count.load(), 16) << "pause " << pause.count() << " us";
+      EXPECT_EQ(most.load(), 2) << "pause " << pause.count() << " us";
+    }
+  }
 }
 
 TEST(ThreadPool, ATaskErrorReachesTheCallerAndThePoolStaysUsable) {
