@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -24,7 +25,7 @@ std::vector<Waypoint> walk(int count) {
   };
   std::vector<Waypoint> w(static_cast<std::size_t>(count));
   for (std::size_t j = 1; j < w.size(); ++j) {
-    const double heading = uniform(-M_PI, M_PI), step_m = uniform(1.0, 3.0);
+    const double heading = uniform(-std::numbers::pi, std::numbers::pi), step_m = uniform(1.0, 3.0);
     w[j].position_m = w[j - 1].position_m + Vec3(step_m * std::cos(heading),
                                                  step_m * std::sin(heading), uniform(-0.3, 0.3));
     w[j].yaw_rad = w[j - 1].yaw_rad + uniform(-0.5, 0.5);
