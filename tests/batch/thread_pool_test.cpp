@@ -29,18 +29,30 @@ TEST(ThreadPool, EveryTaskRunsExactlyOnceOnAnyNumberOfThreads) {
   }
 }
 
+// How many tasks ran at once at most: each task is inside for `duration`.
+class Concurrency {
+ public:
+  void task(std::chrono::microseconds duration) {
+    const int now = inside_.fetch_add(1) + 1;
+    int seen = most_.load();
+    while (now > seen && !most_.compare_exchange_weak(seen, now)) {
+    }
+    std::this_thread::sleep_for(duration);
+    inside_.fetch_sub(1);
+    count_.fetch_add(1);
+  }
+  int most() const { return most_.load(); }
+  int count() const { return count_.load(); }
+
+ private:
+  std::atomic<int> inside_{0}, most_{0}, count_{0};
+};
+
 TEST(ThreadPool, UsesMoreThanOneThreadWhenItHasThem) {
   ThreadPool pool(2);
-  std::atomic<int> inside{0}, most{0};
-  pool.run(64, [&](int) {
-    const int now = inside.fetch_add(1) + 1;
-    int seen = most.load();
-    while (now > seen && !most.compare_exchange_weak(seen, now)) {
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    inside.fetch_sub(1);
-  });
-  EXPECT_EQ(most.load(), 2);
+  Concurrency c;
+  pool.run(64, [&](int) { c.task(std::chrono::milliseconds(1)); });
+  EXPECT_EQ(c.most(), 2);
 }
 
 // A worker out of work polls for a while, then sleeps: the next loop must reach it either way,
@@ -51,19 +63,11 @@ TEST(ThreadPool, TheNextLoopReachesAWorkerThatPolledOrSlept) {
     ThreadPool pool(2);
     for (int repeat = 0; repeat < 5; ++repeat) {
       std::this_thread::sleep_for(pause);
-      std::atomic<int> inside{0}, most{0}, count{0};
-      pool.run(16, [&](int) {
-        const int now = inside.fetch_add(1) + 1;
-        int seen = most.load();
-        while (now > seen && !most.compare_exchange_weak(seen, now)) {
-        }
-        // Long enough that the worker, however late it wakes, finds tasks left.
-        std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        inside.fetch_sub(1);
-        count.fetch_add(1);
-      });
-      EXPECT_EQ(count.load(), 16) << "pause " << pause.count() << " us";
-      EXPECT_EQ(most.load(), 2) << "pause " << pause.count() << " us";
+      Concurrency c;
+      // Tasks long enough that the worker, however late it wakes, finds some left.
+      pool.run(16, [&](int) { c.task(std::chrono::milliseconds(2)); });
+      EXPECT_EQ(c.count(), 16) << "pause " << pause.count() << " us";
+      EXPECT_EQ(c.most(), 2) << "pause " << pause.count() << " us";
     }
   }
 }

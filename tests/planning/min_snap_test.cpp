@@ -20,6 +20,7 @@
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/planning/min_snap.hpp"
+#include "test_support.hpp"
 
 namespace dronetwin::planning {
 namespace {
@@ -85,15 +86,7 @@ double quadrature_total_cost(const Trajectory& traj) {
   return c;
 }
 
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InvalidArgument& e) {
-    return e.what();
-  }
-  return "(no InvalidArgument thrown)";
-}
+using test::error_of;
 
 // ---------------------------------------------------------------------------------------------
 // 1. Boundary conditions.
