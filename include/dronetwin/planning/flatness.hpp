@@ -1,0 +1,140 @@
+#pragma once
+// Differential flatness of a multirotor (Mellinger & Kumar, ICRA 2011): from the flat outputs
+// (position up to snap, yaw up to yaw acceleration) to the attitude, body rates and their
+// derivatives, the collective thrust and its rate, the body torques and the rotor speeds.
+//
+//   const FlatState s = flat_state(traj.at(1.0), model);       // s.q_WB, s.angular_velocity_B...
+//   const FeasibilityReport r = check_feasibility(traj, model, limits, 0.01);
+//   if (!r.feasible) traj = time_scaled(traj, feasible_time_scale(traj, model, limits, 0.01));
+//
+// Model (first cut): a rigid body with the collective thrust along body z, gravity, and the
+// rotor thrusts' moments of the allocation matrix (thrust and yaw reaction, Eq. 2.30); no
+// drag, ground effect, drag or rolling moment, gyroscopic moment or motor lag. The simulator
+// flies the same model with DisturbanceSwitches::none() and motor_dynamics off. The flatness of
+// the drag terms is a later step. Equations (world z up, g_W = -g e3, R = R_WB = [x_B y_B z_B]):
+//   c z_B = a + g e3,  c = |a + g e3|                (thrust per mass along body z)     (1)
+//   x_C = [cos psi, sin psi, 0],  y_B = z_B x x_C / |z_B x x_C|,  x_B = y_B x z_B        (2)
+//   c' = z_B . j;  q = (j . x_B) / c;  p = -(j . y_B) / c                                 (3)
+//   r = (p z_B . x_C + psi' y_B . y_C) / (x_B . x_C),  y_C = [-sin psi, cos psi, 0]       (4)
+// (2) is the heading construction of the project's SE(3) controller (control/se3_law.hpp), so
+// a flat attitude is the one that controller asks for. (3) projects dz_B/dt = w x z_B; (4)
+// differentiates y_B . x_C = 0 once. The angular accelerations differentiate (1) and (2) once
+// more (flatness.cpp). Torques by Euler's equation tau = J w' + w x J w (docs/model.md), then
+// [c m, tau] goes through the thrust-first allocation (model/allocation.hpp).
+//
+// Trap: yaw here is the heading of (2), not the ZYX yaw of math::to_euler; the two agree when
+// the vehicle is level. Singular: zero thrust (free fall, c = 0) and a thrust direction parallel
+// to the heading x_C; flat_state() throws there, check_feasibility() reports it as a violation.
+// The collective thrust is the allocation matrix's first row (the rotor axes' body z parts), so
+// the model is exact for rotors parallel to body z (the QDrone2, the flat hexarotor); the
+// in-plane thrust of tilted rotors is not accounted for.
+
+#include <string>
+#include <string_view>
+
+#include "dronetwin/core/types.hpp"
+#include "dronetwin/model/vehicle_model.hpp"
+#include "dronetwin/planning/polynomial.hpp"
+
+namespace dronetwin::planning {
+
+/// Below this thrust per mass (m/s^2) the attitude (1) is undefined: free fall.
+inline constexpr double kMinThrustPerMass_m_s2 = 1e-6;
+/// Below this |z_B x x_C| the body y axis (2) is undefined: thrust along the heading.
+inline constexpr double kMinHeadingSine = 1e-6;
+
+/// Everything the flat outputs fix, for the rigid-body model above.
+struct FlatState {
+  /// Attitude q_WB (w, x, y, z), w >= 0, and its rotation matrix R_WB (v_W = R v_B).
+  Vec4 q_WB = Vec4(1, 0, 0, 0);
+  Mat3 R_WB = Mat3::Identity();
+  Vec3 angular_velocity_B_rad_s = Vec3::Zero();
+  Vec3 angular_acceleration_B_rad_s2 = Vec3::Zero();
+  /// Collective thrust per mass c = |a + g e3| (m/s^2), the thrust m c (N) and its rate (N/s).
+  double thrust_per_mass_m_s2 = 0.0;
+  double thrust_N = 0.0;
+  double thrust_rate_N_s = 0.0;
+  /// Body torques tau = J w' + w x J w, N m.
+  Vec3 torque_B_Nm = Vec3::Zero();
+  /// [thrust_N, torque_B_Nm]: the input of the allocation.
+  GeneralizedForce generalized_force = GeneralizedForce::Zero();
+  /// Rotor thrusts A^+ u that give generalized_force exactly (N), not clamped to the rotors'
+  /// thrust range.
+  RotorVector rotor_thrusts_N;
+  /// Rotor speeds of the thrust-first allocation (allocate_with_saturation), clamped to the speed
+  /// limits; equal to the speeds of rotor_thrusts_N unless allocation_saturated.
+  RotorVector rotor_speeds_rad_s;
+  bool allocation_saturated = false;
+};
+
+/// The flat state for flat outputs `f` (gravity g along -z, m/s^2). Throws InvalidArgument on a
+/// non-finite number in `f`, a gravity that is negative or not finite, zero thrust (|a + g e3|
+/// below kMinThrustPerMass_m_s2: free fall) or a thrust direction parallel to the heading,
+/// naming the value.
+FlatState flat_state(const FlatOutput& f, const VehicleModel& model, double gravity_m_s2 = 9.81);
+
+/// What a trajectory must stay within besides the model's rotor speed limits.
+struct FeasibilityLimits {
+  /// Largest angle between body z and world z, rad.
+  double max_tilt_rad = 1.0;
+  /// Largest body rate |w_B|, rad/s.
+  double max_body_rate_rad_s = 10.0;
+  double gravity_m_s2 = 9.81;
+};
+
+enum class FeasibilityViolation {
+  kNone,
+  kRotorSpeedAboveMax,  ///< a rotor needs more than its max_speed_rad_s
+  kRotorSpeedBelowMin,  ///< a rotor needs less than its min_speed_rad_s
+  kTilt,                ///< tilt above FeasibilityLimits::max_tilt_rad
+  kBodyRate,            ///< |w_B| above FeasibilityLimits::max_body_rate_rad_s
+  kSingular,            ///< free fall or thrust along the heading (flat_state throws)
+};
+
+std::string_view violation_name(FeasibilityViolation v);
+
+/// The outcome of check_feasibility: the first infeasible sample, if any.
+struct FeasibilityReport {
+  bool feasible = true;
+  /// Time of the first infeasible sample, s (0 when feasible).
+  double time_s = 0.0;
+  FeasibilityViolation violation = FeasibilityViolation::kNone;
+  /// The rotor, for a rotor speed violation (-1 otherwise).
+  int rotor = -1;
+  /// The offending value and the limit it crosses: rad/s for rotor speeds (the speed the thrust
+  /// polynomial needs for the rotor's thrust, unclamped), rad for tilt, rad/s for body rate;
+  /// |a + g e3| or |z_B x x_C| and its threshold for kSingular.
+  double value = 0.0;
+  double limit = 0.0;
+  /// Samples evaluated (up to and including the first infeasible one).
+  int samples = 0;
+  /// "t = 0.42 s: rotor 2 speed 3512.3 rad/s above max 3400 rad/s" (empty when feasible).
+  std::string message;
+};
+
+/// Samples `trajectory` at t = 0, dt, 2 dt, ... and at its end, and reports the first sample at
+/// which a rotor needs a speed outside the model's limits, the tilt or the body rate is above
+/// its limit, or the flat state is singular. At one sample the checks run in that order (rotors
+/// by index) and the first violation is reported. Throws InvalidArgument on a sample_dt_s that is
+/// not positive and finite or limits that are not positive (gravity: non-negative) and finite.
+FeasibilityReport check_feasibility(const Trajectory& trajectory, const VehicleModel& model,
+                                    const FeasibilityLimits& limits, double sample_dt_s);
+
+/// The same path flown `factor` times slower (factor < 1: faster): segment durations times
+/// factor, the coefficient of tau^k divided by factor^k, so that p_new(t) = p(t / factor) and
+/// the k-th derivative scales by factor^-k. Throws InvalidArgument unless factor > 0 and finite.
+Trajectory time_scaled(const Trajectory& trajectory, double factor);
+
+/// The smallest factor >= 1 (within relative tolerance) for which time_scaled(trajectory, factor)
+/// passes check_feasibility: 1 when the trajectory already does; otherwise the factor is doubled
+/// until it passes and the bracket [infeasible, feasible] is bisected until
+/// hi - lo <= relative_tolerance * lo, and hi is returned. Bisection assumes that slowing down
+/// never makes a trajectory less feasible (true for tilt and rates; rotor speeds approach
+/// hover): check the result's neighbourhood if that is in doubt. Throws InvalidArgument on bad
+/// arguments (as check_feasibility; relative_tolerance in (0, 1), max_factor > 1) and when
+/// max_factor does not pass, with that check's message.
+double feasible_time_scale(const Trajectory& trajectory, const VehicleModel& model,
+                           const FeasibilityLimits& limits, double sample_dt_s,
+                           double relative_tolerance = 1e-3, double max_factor = 1e3);
+
+}  // namespace dronetwin::planning
