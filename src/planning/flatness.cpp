@@ -210,7 +210,12 @@ FeasibilityReport check_feasibility(const Trajectory& trajectory, const VehicleM
   require_limits(limits, sample_dt_s, "check_feasibility");
   const double end_s = trajectory.duration_s();
   // Samples k dt before the end, then the end itself (not twice when dt divides the duration).
-  const auto count = static_cast<long long>(std::ceil(end_s / sample_dt_s));
+  const double samples = std::ceil(end_s / sample_dt_s) + 1.0;
+  // A bound instead of an endless loop for a mistyped step (1e-9 s over a 10 s trajectory).
+  require(samples <= kMaxFeasibilitySamples, "check_feasibility: sample_dt_s: ", sample_dt_s,
+          " s over a ", end_s, " s trajectory gives ", samples, " samples, expected at most ",
+          kMaxFeasibilitySamples);
+  const auto count = static_cast<long long>(samples) - 1;
   for (long long k = 0; k <= count; ++k) {
     const double t = std::min(static_cast<double>(k) * sample_dt_s, end_s);
     FeasibilityReport r = check_instant(trajectory.at(t), model, limits);

@@ -481,6 +481,9 @@ TEST(FlatnessErrors, EachBadInputIsNamed) {
     expect_message(error_of([&] { feasible_time_scale(traj, *model, {}, dt); }),
                    "feasible_time_scale: sample_dt_s: expected a positive finite time step");
   }
+  // A step that would take forever: refused before the first sample, with the count named.
+  expect_message(error_of([&] { check_feasibility(traj, *model, {}, 1e-12); }),
+                 "s trajectory gives 2000000000001 samples, expected at most 10000000");
   FeasibilityLimits bad;
   bad.max_tilt_rad = 0.0;
   expect_message(error_of([&] { check_feasibility(traj, *model, bad, 0.01); }),

@@ -112,11 +112,15 @@ struct FeasibilityReport {
   std::string message;
 };
 
+/// At most this many samples per feasibility check (1e7: ~10 s of work).
+inline constexpr double kMaxFeasibilitySamples = 1e7;
+
 /// Samples `trajectory` at t = 0, dt, 2 dt, ... and at its end, and reports the first sample at
 /// which a rotor needs a speed outside the model's limits, the tilt or the body rate is above
 /// its limit, or the flat state is singular. At one sample the checks run in that order (rotors
 /// by index) and the first violation is reported. Throws InvalidArgument on a sample_dt_s that is
-/// not positive and finite or limits that are not positive (gravity: non-negative) and finite.
+/// not positive and finite or gives more than kMaxFeasibilitySamples samples, or limits that are
+/// not positive (gravity: non-negative) and finite.
 FeasibilityReport check_feasibility(const Trajectory& trajectory, const VehicleModel& model,
                                     const FeasibilityLimits& limits, double sample_dt_s);
 
