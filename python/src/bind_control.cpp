@@ -300,7 +300,10 @@ void bind_control(py::module_& m) {
       .def_readwrite("velocity_m_s", &ReferencePoint::velocity_m_s)
       .def_readwrite("acceleration_m_s2", &ReferencePoint::acceleration_m_s2)
       .def_readwrite("yaw_rad", &ReferencePoint::yaw_rad)
-      .def_readwrite("yaw_rate_rad_s", &ReferencePoint::yaw_rate_rad_s);
+      .def_readwrite("yaw_rate_rad_s", &ReferencePoint::yaw_rate_rad_s)
+      .def_readwrite("jerk_m_s3", &ReferencePoint::jerk_m_s3)
+      .def_readwrite("snap_m_s4", &ReferencePoint::snap_m_s4)
+      .def_readwrite("yaw_acceleration_rad_s2", &ReferencePoint::yaw_acceleration_rad_s2);
 
   py::class_<Reference, PyReference, std::shared_ptr<Reference>>(
       m, "Reference",
@@ -497,7 +500,10 @@ void bind_control(py::module_& m) {
       .def_readwrite("gravity_compensation", &Se3Options::gravity_compensation)
       .def_readwrite("max_tilt_rad", &Se3Options::max_tilt_rad)
       .def_readwrite("nonnegative_thrust", &Se3Options::nonnegative_thrust)
-      .def_readwrite("min_thrust_N", &Se3Options::min_thrust_N);
+      .def_readwrite("min_thrust_N", &Se3Options::min_thrust_N)
+      .def_readwrite("angular_feed_forward", &Se3Options::angular_feed_forward,
+                     "Body-rate and angular-acceleration feed-forward from the reference's jerk "
+                     "and snap (off as printed).");
 
   py::class_<Se3Controller, ControllerBase>(
       m, "Se3Controller", "Geometric tracking control on SE(3) (thesis Eq. 3.26-3.29).")

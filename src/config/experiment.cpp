@@ -22,9 +22,11 @@
 
 #include "dronetwin/config/controller_config.hpp"
 #include "dronetwin/config/track_loader.hpp"
+#include "dronetwin/control/trajectory_reference.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/logging/text_file.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "dronetwin/planning/min_snap.hpp"
 #include "experiment_parts.hpp"
 #include "yaml_strict.hpp"
 
@@ -97,8 +99,8 @@ const Names kDrifts = {"per_sample", "continuous"};
 const Names kAllocations = {"exact", "thesis"};
 const Names kControllerInputKeys = {"type",       "controller", "control_rate_hz",
                                     "allocation", "real_time",  "reference"};
-const Names kReferenceTypes = {"setpoint", "thesis_pulse", "piecewise",
-                               "circle",   "figure_eight", "waypoints"};
+const Names kReferenceTypes = {"setpoint",     "thesis_pulse", "piecewise", "circle",
+                               "figure_eight", "waypoints",    "min_snap"};
 const Names kSetpointKeys = {"type", "position_m", "yaw_rad"};
 const Names kPiecewiseKeys = {"type", "segments"};
 const Names kPiecewiseSegmentKeys = {"start_s", "position_m", "yaw_rad"};
@@ -106,6 +108,9 @@ const Names kCircleKeys = {"type", "center_m", "radius_m", "period_s", "yaw_rad"
 const Names kFigureEightKeys = {"type", "center_m", "amplitude_x_m", "amplitude_y_m", "period_s"};
 const Names kWaypointsKeys = {"type", "points"};
 const Names kWaypointKeys = {"time_s", "position_m", "yaw_rad"};
+const Names kMinSnapKeys = {"type", "points", "start_s", "time_weight", "unwrap_yaw"};
+const Names kMinSnapPointKeys = {"time_s", "position_m", "yaw_rad", "velocity_m_s",
+                                 "acceleration_m_s2"};
 // `sensors:` items: the keys every sensor has, then each type's own (kSensorTypeNames order).
 const Names kSensorTypes(kSensorTypeNames.begin(), kSensorTypeNames.end());
 static_assert(kSensorTypeNames.size() == std::variant_size_v<SensorParameters>,
@@ -549,6 +554,72 @@ std::vector<TimedPoint> read_timed_points(const Reader& rd, const YAML::Node& li
   return points;
 }
 
+/// `type: min_snap`: a minimum-snap plan (planning/min_snap.hpp) through `points`, flown from
+/// `start_s` (default 0). Either every point has a time_s (the first 0, strictly increasing) or
+/// none has and `time_weight` (rho > 0) allocates the segment times (minimum snap + rho T).
+std::shared_ptr<const Reference> read_min_snap(const Reader& rd, const Map& m) {
+  const YAML::Node list = m.required("points");
+  const std::string path = m.path("points");
+  const std::string item = "a map {" + name_list(kMinSnapPointKeys) + "}";
+  if (!list.IsSequence() || list.size() < 2)
+    rd.fail(list, path,
+            "expected a list of at least 2 points (" + item + "), got " + describe(list));
+  const bool allocate = m.has("time_weight");
+  std::vector<planning::Waypoint> waypoints;
+  std::vector<double> segment_times_s;
+  double last_time_s = 0.0;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const Map p = rd.map(list[i], item_path(path, i), kMinSnapPointKeys, item);
+    planning::Waypoint w;
+    w.position_m = rd.fixed<3>(p.required("position_m"), p.path("position_m"), "x, y, z in m");
+    w.yaw_rad = read_yaw(rd, p);
+    if (p.has("velocity_m_s"))
+      w.velocity_m_s = rd.fixed<3>(p.get("velocity_m_s"), p.path("velocity_m_s"), "x, y, z in m/s");
+    if (p.has("acceleration_m_s2"))
+      w.acceleration_m_s2 =
+          rd.fixed<3>(p.get("acceleration_m_s2"), p.path("acceleration_m_s2"), "x, y, z in m/s^2");
+    waypoints.push_back(w);
+    if (allocate) {
+      if (p.has("time_s"))
+        rd.fail(p.get("time_s"), p.path("time_s"),
+                "expected no time_s: time_weight allocates the times (give either time_s at "
+                "every point or time_weight)");
+      continue;
+    }
+    const YAML::Node t_node = p.required("time_s");
+    const double t = rd.number(t_node, p.path("time_s"));
+    if (i == 0 && t != 0.0)
+      rd.fail(t_node, p.path("time_s"),
+              "expected 0 (times count from start_s), got " + t_node.Scalar());
+    if (i > 0 && !(t > last_time_s))
+      rd.fail(t_node, p.path("time_s"),
+              "expected a time after " + format_number(last_time_s) + " s (the time_s of " +
+                  item_path(path, i - 1) + "; times must strictly increase), got " +
+                  t_node.Scalar());
+    if (i > 0) segment_times_s.push_back(t - last_time_s);
+    last_time_s = t;
+  }
+  planning::MinSnapOptions options;
+  if (m.has("unwrap_yaw"))
+    options.unwrap_yaw = rd.boolean(m.get("unwrap_yaw"), m.path("unwrap_yaw"));
+  const double start_s = m.has("start_s") ? rd.number(m.get("start_s"), m.path("start_s")) : 0.0;
+  if (start_s < 0.0)
+    rd.fail(m.get("start_s"), m.path("start_s"),
+            "expected a time >= 0 s, got " + m.get("start_s").Scalar());
+  try {
+    if (allocate) {
+      const YAML::Node rho = m.get("time_weight");
+      segment_times_s =
+          planning::allocate_segment_times(waypoints, rd.positive(rho, m.path("time_weight")));
+    }
+    return std::make_shared<const TrajectoryReference>(
+        planning::plan_min_snap(waypoints, segment_times_s, options), start_s);
+  } catch (const InvalidArgument& e) {
+    // Duplicate or non-finite points: the planner names waypoints[i], which is points[i] here.
+    rd.fail(list, path, e.what());
+  }
+}
+
 /// `reference:` of a controller input: a Reference (control/reference.hpp) and its type name.
 std::pair<std::shared_ptr<const Reference>, std::string> read_reference(const Reader& rd,
                                                                         const YAML::Node& node,
@@ -603,6 +674,9 @@ std::pair<std::shared_ptr<const Reference>, std::string> read_reference(const Re
           read_nonnegative(rd, m, "amplitude_y_m", 0.6, "an amplitude"), period(m, 60.0));
       break;
     }
+    case 6:
+      ref = read_min_snap(rd, rd.map(node, path, kMinSnapKeys, expected));
+      break;
     default: {
       const Map m = rd.map(node, path, kWaypointsKeys, expected);
       std::vector<WaypointReference::Waypoint> points;

@@ -85,6 +85,8 @@ ReferencePoint CircleReference::at(double t_s) const {
   p.position_m = center_m_ + radius_m_ * Vec3(c, s, 0);
   p.velocity_m_s = radius_m_ * w * Vec3(-s, c, 0);
   p.acceleration_m_s2 = -radius_m_ * w * w * Vec3(c, s, 0);
+  p.jerk_m_s3 = radius_m_ * w * w * w * Vec3(s, -c, 0);
+  p.snap_m_s4 = radius_m_ * w * w * w * w * Vec3(c, s, 0);
   p.yaw_rad = yaw_rad_;
   return p;
 }
@@ -111,6 +113,9 @@ ReferencePoint FigureEightReference::at(double t_s) const {
   p.velocity_m_s = Vec3(ax_ * w * std::cos(w * t_s), 2 * ay_ * w * std::cos(2 * w * t_s), 0);
   p.acceleration_m_s2 =
       Vec3(-ax_ * w * w * std::sin(w * t_s), -4 * ay_ * w * w * std::sin(2 * w * t_s), 0);
+  const double w3 = w * w * w, w4 = w3 * w;
+  p.jerk_m_s3 = Vec3(-ax_ * w3 * std::cos(w * t_s), -8 * ay_ * w3 * std::cos(2 * w * t_s), 0);
+  p.snap_m_s4 = Vec3(ax_ * w4 * std::sin(w * t_s), 16 * ay_ * w4 * std::sin(2 * w * t_s), 0);
   return p;
 }
 std::unique_ptr<Reference> FigureEightReference::clone() const {
@@ -153,12 +158,18 @@ ReferencePoint WaypointReference::at(double t_s) const {
   const double h = s * s * s * (10 - 15 * s + 6 * s * s);
   const double dh = 30 * s * s * (1 - s) * (1 - s) / T;
   const double ddh = 60 * s * (1 - s) * (1 - 2 * s) / (T * T);
+  const double dddh = 60 * (1 - 6 * s + 6 * s * s) / (T * T * T);
+  const double ddddh = 360 * (2 * s - 1) / (T * T * T * T);
   const Vec3 d = b.position_m - a.position_m;
+  const double d_yaw = b.yaw_rad - a.yaw_rad;
   p.position_m = a.position_m + h * d;
   p.velocity_m_s = dh * d;
   p.acceleration_m_s2 = ddh * d;
-  p.yaw_rad = a.yaw_rad + h * (b.yaw_rad - a.yaw_rad);
-  p.yaw_rate_rad_s = dh * (b.yaw_rad - a.yaw_rad);
+  p.jerk_m_s3 = dddh * d;
+  p.snap_m_s4 = ddddh * d;
+  p.yaw_rad = a.yaw_rad + h * d_yaw;
+  p.yaw_rate_rad_s = dh * d_yaw;
+  p.yaw_acceleration_rad_s2 = ddh * d_yaw;
   return p;
 }
 std::unique_ptr<Reference> WaypointReference::clone() const {

@@ -6,6 +6,7 @@
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "dronetwin/planning/flatness.hpp"
 
 namespace dronetwin {
 
@@ -23,6 +24,28 @@ Vec3 se3_attitude_moment(const Mat3& R, const Vec3& w_B, const Vec3& b3d, double
                          const Vec3& attitude_p, const Vec3& attitude_d, const Mat3& J) {
   return se3_attitude_law<double>(R, w_B, b3d, std::cos(yaw_rad), std::sin(yaw_rad), attitude_p,
                                   attitude_d, J);
+}
+
+Se3AngularFeedForward<double> se3_feed_forward(const ReferencePoint& ref, double gravity_m_s2,
+                                               bool enabled) {
+  Se3AngularFeedForward<double> ff{Vec3::Zero(), Vec3::Zero()};
+  if (!enabled) return ff;
+  planning::FlatOutput f;
+  f.position_m = ref.position_m;
+  f.velocity_m_s = ref.velocity_m_s;
+  f.acceleration_m_s2 = ref.acceleration_m_s2;
+  f.jerk_m_s3 = ref.jerk_m_s3;
+  f.snap_m_s4 = ref.snap_m_s4;
+  f.yaw_rad = ref.yaw_rad;
+  f.yaw_rate_rad_s = ref.yaw_rate_rad_s;
+  f.yaw_acceleration_rad_s2 = ref.yaw_acceleration_rad_s2;
+  planning::FlatAttitude attitude;
+  // Singular reference (free fall, thrust along the heading): no feed-forward this step.
+  if (planning::flat_attitude(f, gravity_m_s2, attitude) != planning::FlatSingularity::kNone)
+    return ff;
+  ff.angular_velocity_B = attitude.angular_velocity_B_rad_s;
+  ff.angular_acceleration_B = attitude.angular_acceleration_B_rad_s2;
+  return ff;
 }
 
 Se3LawConstants se3_law_constants(const Se3Gains& gains, const Se3Options& options, const Mat3& J) {
@@ -43,6 +66,7 @@ Se3LawConstants se3_law_constants(const Se3Gains& gains, const Se3Options& optio
   k.nonnegative_thrust = options.nonnegative_thrust;
   k.min_thrust_N = options.min_thrust_N;
   k.inertia_kgm2 = J;
+  k.angular_feed_forward = options.angular_feed_forward;
   return k;
 }
 
@@ -109,20 +133,30 @@ GeneralizedForce Se3Controller::do_calculate_u(const ControlInput& in) {
     for (int i = 0; i < 2; ++i) {
       const InputShaper& shaper = shapers_[static_cast<std::size_t>(i)];
       ref.position_m[i] = ref.velocity_m_s[i] = ref.acceleration_m_s2[i] = 0.0;
+      ref.jerk_m_s3[i] = ref.snap_m_s4[i] = 0.0;
       for (int k = 0; k < shaper.count; ++k) {
         const ShaperImpulse& impulse = shaper.impulses[static_cast<std::size_t>(k)];
         const ReferencePoint r = preview_->at(in.time_s - impulse.delay_s);
         ref.position_m[i] += impulse.amplitude * r.position_m[i];
         ref.velocity_m_s[i] += impulse.amplitude * r.velocity_m_s[i];
         ref.acceleration_m_s2[i] += impulse.amplitude * r.acceleration_m_s2[i];
+        ref.jerk_m_s3[i] += impulse.amplitude * r.jerk_m_s3[i];
+        ref.snap_m_s4[i] += impulse.amplitude * r.snap_m_s4[i];
       }
     }
   }
   // The law itself is control/se3_law.hpp, shared with the batched controller.
-  const Se3LawInput<double> law_in{
-      x.segment<3>(kPosition),        x.segment<3>(kVelocity), x.segment<4>(kQuaternion),
-      x.segment<3>(kAngularVelocity), ref.position_m,          ref.velocity_m_s,
-      ref.acceleration_m_s2,          std::cos(ref.yaw_rad),   std::sin(ref.yaw_rad)};
+  Se3LawInput<double> law_in{
+      x.segment<3>(kPosition),
+      x.segment<3>(kVelocity),
+      x.segment<4>(kQuaternion),
+      x.segment<3>(kAngularVelocity),
+      ref.position_m,
+      ref.velocity_m_s,
+      ref.acceleration_m_s2,
+      std::cos(ref.yaw_rad),
+      std::sin(ref.yaw_rad),
+      se3_feed_forward(ref, gains_.gravity_m_s2, options_.angular_feed_forward)};
   return se3_law(law_, law_in);
 }
 

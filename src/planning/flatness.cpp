@@ -38,66 +38,43 @@ struct Singularity {
 // (and `out` incomplete) where they are undefined.
 void compute(const FlatOutput& f, const VehicleModel& model, double g, FlatState& out,
              Singularity& singular) {
-  const Vec3 e3 = Vec3::UnitZ();
-  const Vec3 thrust_vector = f.acceleration_m_s2 + g * e3;  // c z_B, (1)
-  const double c = thrust_vector.norm();
-  if (!(c >= kMinThrustPerMass_m_s2)) {
-    singular = {FeasibilityViolation::kSingular, c, kMinThrustPerMass_m_s2,
-                detail::concat("zero thrust (free fall): |a + g e3| = ", c, " m/s^2 (a = ",
-                               text(f.acceleration_m_s2), " m/s^2, g = ", g, " m/s^2), below ",
-                               kMinThrustPerMass_m_s2, " m/s^2: the attitude is undefined")};
-    return;
+  FlatAttitude att;
+  switch (flat_attitude(f, g, att)) {
+    case FlatSingularity::kNone:
+      break;
+    case FlatSingularity::kFreeFall: {
+      const double c = (f.acceleration_m_s2 + g * Vec3::UnitZ()).norm();
+      singular = {FeasibilityViolation::kSingular, c, kMinThrustPerMass_m_s2,
+                  detail::concat("zero thrust (free fall): |a + g e3| = ", c, " m/s^2 (a = ",
+                                 text(f.acceleration_m_s2), " m/s^2, g = ", g, " m/s^2), below ",
+                                 kMinThrustPerMass_m_s2, " m/s^2: the attitude is undefined")};
+      return;
+    }
+    case FlatSingularity::kThrustAlongHeading: {
+      const Vec3 z_B = (f.acceleration_m_s2 + g * Vec3::UnitZ()).normalized();
+      const Vec3 x_C(std::cos(f.yaw_rad), std::sin(f.yaw_rad), 0.0);
+      const double heading_sine = z_B.cross(x_C).norm();
+      singular = {FeasibilityViolation::kSingular, heading_sine, kMinHeadingSine,
+                  detail::concat("thrust direction z_B = ", text(z_B),
+                                 " parallel to the heading x_C = ", text(x_C), " (yaw ", f.yaw_rad,
+                                 " rad): |z_B x x_C| = ", heading_sine, ", below ", kMinHeadingSine,
+                                 ": the body x axis is undefined")};
+      return;
+    }
   }
-  const Vec3 z_B = thrust_vector / c;
-  const double cos_psi = std::cos(f.yaw_rad), sin_psi = std::sin(f.yaw_rad);
-  const Vec3 x_C(cos_psi, sin_psi, 0.0), y_C(-sin_psi, cos_psi, 0.0);
-  const Vec3 y_raw = z_B.cross(x_C);
-  const double heading_sine = y_raw.norm();  // = x_B . x_C, the denominator of (4)
-  if (!(heading_sine >= kMinHeadingSine)) {
-    singular = {FeasibilityViolation::kSingular, heading_sine, kMinHeadingSine,
-                detail::concat("thrust direction z_B = ", text(z_B),
-                               " parallel to the heading x_C = ", text(x_C), " (yaw ", f.yaw_rad,
-                               " rad): |z_B x x_C| = ", heading_sine, ", below ", kMinHeadingSine,
-                               ": the body x axis is undefined")};
-    return;
-  }
-  const Vec3 y_B = y_raw / heading_sine;
-  const Vec3 x_B = y_B.cross(z_B);
-  out.R_WB.col(0) = x_B;
-  out.R_WB.col(1) = y_B;
-  out.R_WB.col(2) = z_B;
+  out.R_WB = att.R_WB;
   const Eigen::Quaterniond q(out.R_WB);
   out.q_WB = Vec4(q.w(), q.x(), q.y(), q.z());
   if (out.q_WB[0] < 0.0) out.q_WB = -out.q_WB;  // one of the two, w >= 0
-
-  // Body rates, (3) and (4).
-  const Vec3& j = f.jerk_m_s3;
-  const double c_dot = z_B.dot(j);
-  const double p = -j.dot(y_B) / c, q_rate = j.dot(x_B) / c;
-  const double psi_dot = f.yaw_rate_rad_s, psi_ddot = f.yaw_acceleration_rad_s2;
-  const double r = (p * z_B.dot(x_C) + psi_dot * y_B.dot(y_C)) / heading_sine;
-  const Vec3 w_B(p, q_rate, r);
-  const Vec3 w_W = out.R_WB * w_B;
-
-  // Angular accelerations: (1) twice differentiated, s = c'' z_B + 2 c' w x z_B
-  // + c (w' x z_B + w x (w x z_B)), projected on x_B and y_B; y_B . x_C = 0 twice differentiated,
-  // (w' x y_B + w x (w x y_B)) . x_C + 2 psi' (w x y_B) . y_C + psi'' y_B . y_C = 0, for w'_z.
-  const Vec3& s = f.snap_m_s4;
-  const double a_x = r * q_rate - (s.dot(y_B) + 2.0 * c_dot * p) / c;
-  const double a_y = (s.dot(x_B) - 2.0 * c_dot * q_rate) / c - r * p;
-  const Vec3 w_x_y = w_W.cross(y_B);
-  const double a_z = (a_x * z_B.dot(x_C) + w_W.cross(w_x_y).dot(x_C) +
-                      2.0 * psi_dot * w_x_y.dot(y_C) + psi_ddot * y_B.dot(y_C)) /
-                     heading_sine;
-  const Vec3 dw_B(a_x, a_y, a_z);
-
+  const Vec3& w_B = att.angular_velocity_B_rad_s;
+  const Vec3& dw_B = att.angular_acceleration_B_rad_s2;
   const double m = model.mass_kg();
   const Mat3& J = model.inertia_kgm2();
   out.angular_velocity_B_rad_s = w_B;
   out.angular_acceleration_B_rad_s2 = dw_B;
-  out.thrust_per_mass_m_s2 = c;
-  out.thrust_N = m * c;
-  out.thrust_rate_N_s = m * c_dot;
+  out.thrust_per_mass_m_s2 = att.thrust_per_mass_m_s2;
+  out.thrust_N = m * att.thrust_per_mass_m_s2;
+  out.thrust_rate_N_s = m * att.thrust_per_mass_rate_m_s3;
   out.torque_B_Nm = J * dw_B + w_B.cross(J * w_B);  // Euler's equation
   out.generalized_force << out.thrust_N, out.torque_B_Nm;
   out.rotor_thrusts_N = model.thrusts_for(out.generalized_force);
@@ -172,6 +149,50 @@ FeasibilityReport check_instant(const FlatOutput& f, const VehicleModel& model,
 }
 
 }  // namespace
+
+FlatSingularity flat_attitude(const FlatOutput& f, double gravity_m_s2, FlatAttitude& out) {
+  const Vec3 e3 = Vec3::UnitZ();
+  const Vec3 thrust_vector = f.acceleration_m_s2 + gravity_m_s2 * e3;  // c z_B, (1)
+  const double c = thrust_vector.norm();
+  if (!(c >= kMinThrustPerMass_m_s2)) return FlatSingularity::kFreeFall;
+  const Vec3 z_B = thrust_vector / c;
+  const double cos_psi = std::cos(f.yaw_rad), sin_psi = std::sin(f.yaw_rad);
+  const Vec3 x_C(cos_psi, sin_psi, 0.0), y_C(-sin_psi, cos_psi, 0.0);
+  const Vec3 y_raw = z_B.cross(x_C);
+  const double heading_sine = y_raw.norm();  // = x_B . x_C, the denominator of (4)
+  if (!(heading_sine >= kMinHeadingSine)) return FlatSingularity::kThrustAlongHeading;
+  const Vec3 y_B = y_raw / heading_sine;
+  const Vec3 x_B = y_B.cross(z_B);
+
+  // Body rates, (3) and (4).
+  const Vec3& j = f.jerk_m_s3;
+  const double c_dot = z_B.dot(j);
+  const double p = -j.dot(y_B) / c, q_rate = j.dot(x_B) / c;
+  const double psi_dot = f.yaw_rate_rad_s, psi_ddot = f.yaw_acceleration_rad_s2;
+  const double r = (p * z_B.dot(x_C) + psi_dot * y_B.dot(y_C)) / heading_sine;
+  Mat3 R;
+  R.col(0) = x_B;
+  R.col(1) = y_B;
+  R.col(2) = z_B;
+  const Vec3 w_W = R * Vec3(p, q_rate, r);
+
+  // Angular accelerations: (1) twice differentiated, s = c'' z_B + 2 c' w x z_B
+  // + c (w' x z_B + w x (w x z_B)), projected on x_B and y_B; y_B . x_C = 0 twice differentiated,
+  // (w' x y_B + w x (w x y_B)) . x_C + 2 psi' (w x y_B) . y_C + psi'' y_B . y_C = 0, for w'_z.
+  const Vec3& s = f.snap_m_s4;
+  const double a_x = r * q_rate - (s.dot(y_B) + 2.0 * c_dot * p) / c;
+  const double a_y = (s.dot(x_B) - 2.0 * c_dot * q_rate) / c - r * p;
+  const Vec3 w_x_y = w_W.cross(y_B);
+  const double a_z = (a_x * z_B.dot(x_C) + w_W.cross(w_x_y).dot(x_C) +
+                      2.0 * psi_dot * w_x_y.dot(y_C) + psi_ddot * y_B.dot(y_C)) /
+                     heading_sine;
+  out.R_WB = R;
+  out.angular_velocity_B_rad_s = Vec3(p, q_rate, r);
+  out.angular_acceleration_B_rad_s2 = Vec3(a_x, a_y, a_z);
+  out.thrust_per_mass_m_s2 = c;
+  out.thrust_per_mass_rate_m_s3 = c_dot;
+  return FlatSingularity::kNone;
+}
 
 FlatState flat_state(const FlatOutput& f, const VehicleModel& model, double gravity_m_s2) {
   require_gravity(gravity_m_s2, "flat_state");

@@ -27,12 +27,15 @@ std::uint64_t bits_of(double x) {
 }
 
 std::vector<Se3Options> option_sets() {
-  std::vector<Se3Options> sets(4);
+  std::vector<Se3Options> sets(5);
   sets[1].gravity_compensation = true;
   sets[2].gravity_compensation = true;
   sets[2].max_tilt_rad = 0.5;
   sets[3].max_tilt_rad = 0.35;
   sets[3].nonnegative_thrust = true;
+  sets[4].gravity_compensation = true;
+  sets[4].max_tilt_rad = 0.5;
+  sets[4].angular_feed_forward = true;
   return sets;
 }
 
@@ -53,6 +56,12 @@ ReferencePoint random_reference(Random& rng) {
     r.acceleration_m_s2[k] = 8.0 * rng.normal();
   }
   r.yaw_rad = 4.0 * rng.normal();
+  for (int k = 0; k < 3; ++k) {
+    r.jerk_m_s3[k] = 20.0 * rng.normal();
+    r.snap_m_s4[k] = 100.0 * rng.normal();
+  }
+  r.yaw_rate_rad_s = rng.normal();
+  r.yaw_acceleration_rad_s2 = 5.0 * rng.normal();
   return r;
 }
 
@@ -99,6 +108,17 @@ TEST(BatchSe3, TheLawOnAPackEqualsSe3ControllerInEveryLane) {
             lanes([&](const ControlInput& c) { return c.state[state_index::kQuaternion + k]; });
       in.cos_yaw = lanes([](const ControlInput& c) { return std::cos(c.reference.yaw_rad); });
       in.sin_yaw = lanes([](const ControlInput& c) { return std::sin(c.reference.yaw_rad); });
+      for (int k = 0; k < 3; ++k) {
+        // The feed-forward as the batched controller stores it (set_reference, in double).
+        const auto ff = [&](const ControlInput& c) {
+          return se3_feed_forward(c.reference, scalar.law().gravity_m_s2,
+                                  options.angular_feed_forward);
+        };
+        in.feed_forward.angular_velocity_B[k] =
+            lanes([&](const ControlInput& c) { return ff(c).angular_velocity_B[k]; });
+        in.feed_forward.angular_acceleration_B[k] =
+            lanes([&](const ControlInput& c) { return ff(c).angular_acceleration_B[k]; });
+      }
       const Vector4<P> u = se3_law<P>(scalar.law(), in);
       for (int l = 0; l < W; ++l) {
         const GeneralizedForce ref = scalar.calculate_u(inputs[static_cast<std::size_t>(l)]);
@@ -149,13 +169,24 @@ TEST(BatchSe3, BatchedAllocationEqualsTheScalarOneWithItsSaturationFlags) {
   }
 }
 
+void fly_batch_and_closed_loop(bool feed_forward);
+
 // In double, a lane flown by BatchSe3Controller equals a Simulator flown by Se3Controller through
-// ClosedLoop at the physics rate, over 3 s from tilted, moving starts, with per-lane masses.
+// ClosedLoop at the physics rate, over 3 s from tilted, moving starts, with per-lane masses;
+// without and with the feed-forward (references with jerk, snap and yaw motion).
 TEST(BatchSe3, ALaneFlownByTheBatchedControllerEqualsTheClosedLoop) {
+  for (const bool feed_forward : {false, true}) {
+    SCOPED_TRACE(feed_forward ? "with feed-forward" : "without feed-forward");
+    fly_batch_and_closed_loop(feed_forward);
+  }
+}
+
+void fly_batch_and_closed_loop(bool feed_forward) {
   const auto model = test::load_model("qdrone2");
   Se3Options options;
   options.gravity_compensation = true;
   options.max_tilt_rad = 0.6;
+  options.angular_feed_forward = feed_forward;
   constexpr int N = 13, kSteps = 3000;
   SimConfig cfg;
   BatchSimulator<double> batch(model, cfg, N, 2);
@@ -176,6 +207,10 @@ TEST(BatchSe3, ALaneFlownByTheBatchedControllerEqualsTheClosedLoop) {
     r.velocity_m_s = Vec3(0.3 * rng.normal(), 0.3 * rng.normal(), 0.0);
     r.acceleration_m_s2 = Vec3(0.5 * rng.normal(), 0.5 * rng.normal(), 0.0);
     r.yaw_rad = rng.normal();
+    r.jerk_m_s3 = Vec3(rng.normal(), rng.normal(), 0.2 * rng.normal());
+    r.snap_m_s4 = Vec3(3.0 * rng.normal(), 3.0 * rng.normal(), 0.5 * rng.normal());
+    r.yaw_rate_rad_s = 0.2 * rng.normal();
+    r.yaw_acceleration_rad_s2 = 0.5 * rng.normal();
     refs.push_back(r);
     masses.push_back(model->mass_kg() * (l % 2 == 0 ? 1.0 : 0.9 + 0.2 * rng.uniform()));
     batch.set_parameter(ModelParameter::kMass, l, masses.back());

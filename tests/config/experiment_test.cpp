@@ -22,8 +22,10 @@
 #include <vector>
 
 #include "dronetwin/config/model_loader.hpp"
+#include "dronetwin/control/trajectory_reference.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "dronetwin/planning/min_snap.hpp"
 #include "test_support.hpp"
 
 namespace dronetwin {
@@ -334,6 +336,9 @@ void expect_same_reference(const Reference& a, const Reference& b) {
     EXPECT_EQ(pa.acceleration_m_s2, pb.acceleration_m_s2) << "t = " << t;
     EXPECT_EQ(pa.yaw_rad, pb.yaw_rad) << "t = " << t;
     EXPECT_EQ(pa.yaw_rate_rad_s, pb.yaw_rate_rad_s) << "t = " << t;
+    EXPECT_EQ(pa.jerk_m_s3, pb.jerk_m_s3) << "t = " << t;
+    EXPECT_EQ(pa.snap_m_s4, pb.snap_m_s4) << "t = " << t;
+    EXPECT_EQ(pa.yaw_acceleration_rad_s2, pb.yaw_acceleration_rad_s2) << "t = " << t;
   }
   EXPECT_EQ(a.describe(), b.describe());
 }
@@ -408,6 +413,29 @@ TEST(ExperimentController, EveryReferenceType) {
   expect_same_reference(*in.reference, WaypointReference({{0.0, Vec3(0, 0, 1), 0.0},
                                                           {3.0, Vec3(2, 0, 1), 1.0},
                                                           {5.5, Vec3(2, 2, 1.5), 0.0}}));
+
+  // min_snap: the planner's trajectory through the points, from start_s; or with allocated times.
+  std::vector<planning::Waypoint> w(3);
+  w[0].position_m = Vec3(0, 0, 1);
+  w[1].position_m = Vec3(2, 0, 1);
+  w[1].yaw_rad = 1.0;
+  w[1].velocity_m_s = Vec3(1, 0.5, 0);
+  w[2].position_m = Vec3(2, 2, 1.5);
+  in = parse_loop(
+      "{type: min_snap, start_s: 1.5, points: [{time_s: 0, position_m: [0, 0, 1]},"
+      " {time_s: 3, position_m: [2, 0, 1], yaw_rad: 1.0, velocity_m_s: [1, 0.5, 0]},"
+      " {time_s: 5.5, position_m: [2, 2, 1.5]}]}");
+  EXPECT_EQ(in.reference_type, "min_snap");
+  expect_same_reference(*in.reference,
+                        TrajectoryReference(planning::plan_min_snap(w, {3.0, 2.5}), 1.5));
+  // The second point at 1.5 + 3 s.
+  EXPECT_NEAR((in.reference->at(4.5).position_m - Vec3(2, 0, 1)).norm(), 0.0, 1e-12);
+  w[1].velocity_m_s.reset();
+  in = parse_loop(
+      "{type: min_snap, time_weight: 20, points: [{position_m: [0, 0, 1]},"
+      " {position_m: [2, 0, 1], yaw_rad: 1.0}, {position_m: [2, 2, 1.5]}]}");
+  expect_same_reference(*in.reference, TrajectoryReference(planning::plan_min_snap(
+                                           w, planning::allocate_segment_times(w, 20.0))));
 }
 
 TEST(ExperimentController, ControllerPathIsRelativeToTheExperimentFileFirst) {
@@ -574,6 +602,32 @@ TEST(ExperimentController, InlineDefectsNameTheirFields) {
       "input.reference.points[2].time_s: expected a time after 2 s");
   has(msg("{type: waypoints, points: [{t: 0, position_m: [0, 0, 1]}]}"),
       "input.reference.points[0]: unknown key 't'");
+  has(msg("{type: min_snap, points: [{time_s: 0, position_m: [0, 0, 1]}]}"),
+      "input.reference.points: expected a list of at least 2 points");
+  has(msg("{type: min_snap, points: [{time_s: 1, position_m: [0, 0, 1]}, "
+          "{time_s: 2, position_m: [1, 0, 1]}]}"),
+      "input.reference.points[0].time_s: expected 0 (times count from start_s), got 1");
+  has(msg("{type: min_snap, points: [{time_s: 0, position_m: [0, 0, 1]}, "
+          "{time_s: 2, position_m: [1, 0, 1]}, {time_s: 2, position_m: [2, 0, 1]}]}"),
+      "input.reference.points[2].time_s: expected a time after 2 s");
+  has(msg("{type: min_snap, points: [{time_s: 0, position_m: [0, 0, 1]}, "
+          "{position_m: [1, 0, 1]}]}"),
+      "input.reference.points[1]: missing required key 'time_s'");
+  has(msg("{type: min_snap, time_weight: 10, points: [{time_s: 0, position_m: [0, 0, 1]}, "
+          "{position_m: [1, 0, 1]}]}"),
+      "input.reference.points[0].time_s: expected no time_s: time_weight allocates the times");
+  has(msg("{type: min_snap, time_weight: 0, points: [{position_m: [0, 0, 1]}, "
+          "{position_m: [1, 0, 1]}]}"),
+      "input.reference.time_weight: expected a number > 0, got 0");
+  has(msg("{type: min_snap, points: [{time_s: 0, position_m: [0, 0, 1]}, "
+          "{time_s: 1, position_m: [1, 0, 1]}, {time_s: 2, position_m: [1, 0, 1]}]}"),
+      "input.reference.points: plan_min_snap: waypoints[1] and waypoints[2] are the same point");
+  has(msg("{type: min_snap, start_s: -1, points: [{time_s: 0, position_m: [0, 0, 1]}, "
+          "{time_s: 1, position_m: [1, 0, 1]}]}"),
+      "input.reference.start_s: expected a time >= 0 s, got -1");
+  has(msg("{type: min_snap, points: [{time_s: 0, position_m: [0, 0, 1], speed: 2}, "
+          "{time_s: 1, position_m: [1, 0, 1]}]}"),
+      "input.reference.points[0]: unknown key 'speed'");
 
   // metrics
   has(msg("{type: circle}", "", "metrics: {window_s: [3, 1]}\n"),

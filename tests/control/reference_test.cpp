@@ -21,6 +21,13 @@ void expect_consistent_derivatives(const Reference& ref, double t0, double t1) {
     EXPECT_LT((v_fd - c.velocity_m_s).norm(), 1e-6) << ref.describe() << " t = " << t;
     EXPECT_LT((a_fd - c.acceleration_m_s2).norm(), 1e-6) << ref.describe() << " t = " << t;
     EXPECT_NEAR((b.yaw_rad - a.yaw_rad) / (2 * h), c.yaw_rate_rad_s, 1e-6) << ref.describe();
+    // Jerk, snap and yaw acceleration (the SE(3) feed-forward's inputs), the same way.
+    const Vec3 j_fd = (b.acceleration_m_s2 - a.acceleration_m_s2) / (2 * h);
+    const Vec3 s_fd = (b.jerk_m_s3 - a.jerk_m_s3) / (2 * h);
+    EXPECT_LT((j_fd - c.jerk_m_s3).norm(), 1e-6) << ref.describe() << " t = " << t;
+    EXPECT_LT((s_fd - c.snap_m_s4).norm(), 1e-6) << ref.describe() << " t = " << t;
+    EXPECT_NEAR((b.yaw_rate_rad_s - a.yaw_rate_rad_s) / (2 * h), c.yaw_acceleration_rad_s2, 1e-6)
+        << ref.describe();
   }
 }
 

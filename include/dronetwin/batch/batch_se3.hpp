@@ -14,7 +14,10 @@
 //
 // References: structure of arrays like the batch's, reference_data()[k * stride + lane] with
 // k = 0-2 position (m), 3-5 velocity (m/s), 6-8 acceleration (m/s^2), 9-10 the heading b1d =
-// [cos yaw, sin yaw] of Eq. 3.28 (stored as a unit vector so the loop needs no trigonometry).
+// [cos yaw, sin yaw] of Eq. 3.28 (stored as a unit vector so the loop needs no trigonometry),
+// 11-13 the desired body rates w_des (rad/s) and 14-16 angular accelerations w_dot_des (rad/s^2)
+// of the feed-forward (Se3Options::angular_feed_forward; read only with it). set_reference
+// computes them from the reference's jerk and snap in double, as Se3Controller does each step.
 // The controller uses the nominal model (its mass in the gains, its inertia and allocation): per
 // lane parameters of the batch change the vehicles, not what the controller believes.
 
@@ -33,7 +36,7 @@ class BatchSe3Controller final : public BatchInnerLoop<T> {
   using typename BatchInnerLoop<T>::Lanes;
   using typename BatchInnerLoop<T>::Mask;
   static constexpr int kLanes = BatchInnerLoop<T>::kLanes;
-  static constexpr int kReferenceSize = 11;
+  static constexpr int kReferenceSize = 17;
 
   /// Gains and options as Se3Controller (the same checks); every lane's reference starts at rest
   /// at the origin with yaw 0.
@@ -45,8 +48,9 @@ class BatchSe3Controller final : public BatchInnerLoop<T> {
   int stride() const { return stride_; }
   const Se3LawConstants& law() const { return law_; }
 
-  /// Lane `lane` tracks `reference` (position, velocity, acceleration, yaw); InvalidArgument for a
-  /// bad lane or non-finite values.
+  /// Lane `lane` tracks `reference` (position, velocity, acceleration, yaw; with the feed-forward
+  /// also jerk, snap, yaw rate and yaw acceleration); InvalidArgument for a bad lane or
+  /// non-finite values.
   void set_reference(int lane, const ReferencePoint& reference);
   T* reference_data() { return reference_.data(); }
   /// Per lane, from the last update: 1 when the rotors could not give the requested force.

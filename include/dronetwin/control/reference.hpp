@@ -1,6 +1,8 @@
 #pragma once
 // Reference trajectories for tracking controllers, with the derivatives controllers need:
-// position, velocity, acceleration (world frame), yaw and yaw rate.
+// position, velocity, acceleration, jerk and snap (world frame), yaw and its first two
+// derivatives. Jerk, snap and yaw acceleration feed the SE(3) controller's body-rate and
+// angular-acceleration feed-forward (control/se3.hpp); a reference that holds still leaves them 0.
 //
 //   auto ref = FigureEightReference{};          // thesis Eq. 3.25
 //   ReferencePoint r = ref.at(12.5);            // r.position_m, r.velocity_m_s, ...
@@ -21,6 +23,9 @@ struct ReferencePoint {
   Vec3 acceleration_m_s2 = Vec3::Zero();
   double yaw_rad = 0.0;
   double yaw_rate_rad_s = 0.0;
+  Vec3 jerk_m_s3 = Vec3::Zero();
+  Vec3 snap_m_s4 = Vec3::Zero();
+  double yaw_acceleration_rad_s2 = 0.0;
 };
 
 class Reference {
@@ -95,7 +100,8 @@ class FigureEightReference final : public Reference {
 };
 
 /// Timed waypoints joined by quintic (minimum-jerk) segments that start and end at rest, so
-/// position, velocity and acceleration are continuous. Holds the last waypoint afterwards.
+/// position, velocity and acceleration are continuous (jerk and snap jump at the waypoints). Holds
+/// the last waypoint afterwards.
 class WaypointReference final : public Reference {
  public:
   struct Waypoint {

@@ -16,6 +16,16 @@
 //   M = -K_R e_R - K_w e_w + w x J w
 // R comes from the normalised measured quaternion (notes #30); J is the vehicle model's inertia.
 //
+// Feed-forward (Se3Options::angular_feed_forward; not in the thesis, whose Eq. 3.28 sets
+// w_des = w_dot_des = 0): w_des and w_dot_des are the body rates and angular accelerations of the
+// reference's flat attitude (planning/flatness.hpp, from the reference's jerk, snap, yaw rate and
+// yaw acceleration), and the attitude law becomes Lee et al.'s full one,
+//   e_w = w - R^T R_des w_des,  M = -K_R e_R - K_w e_w + w x J w - J (w x R^T R_des w_des
+//                                                                   - R^T R_des w_dot_des).
+// Without it the attitude loop lags every turn of the reference: it damps the rates the
+// trajectory needs. Where the flat attitude is singular (reference in free fall, thrust along the
+// heading) the feed-forward is 0 for that step. docs/controllers.md, "Feed-forward", measures it.
+//
 //   Se3Options options;                          // as printed
 //   options.gravity_compensation = true;         // notes #35
 //   options.max_tilt_rad = 0.6;
@@ -80,10 +90,19 @@ struct Se3Options {
   /// ClosedLoop calls); without it the reference is flown as given.
   bool shape_reference_for_payload = false;
   double payload_tether_length_m = 0.0;
+  /// Body-rate and angular-acceleration feed-forward from the reference's jerk and snap (see
+  /// above). As printed: off.
+  bool angular_feed_forward = false;
 };
 
 /// The constants of the law (control/se3_law.hpp) for these gains, options and inertia.
 Se3LawConstants se3_law_constants(const Se3Gains& gains, const Se3Options& options, const Mat3& J);
+
+/// The feed-forward of the SE(3) law for reference `ref` (see above): the body rates and angular
+/// accelerations of its flat attitude; 0 when not `enabled` or where that attitude is singular.
+/// Shared with the batched controller, which computes it per lane when the reference is set.
+Se3AngularFeedForward<double> se3_feed_forward(const ReferencePoint& ref, double gravity_m_s2,
+                                               bool enabled);
 
 /// The attitude half of the SE(3) law (Eq. 3.27-3.28 with w_des = 0), shared with the NMPC's
 /// inner loop: R_des = [b2d x b3d, b2d, b3d] from the desired thrust direction `b3d` (unit) and

@@ -33,6 +33,15 @@ struct Se3LawConstants {
   bool nonnegative_thrust = false;
   double min_thrust_N = 0.0;  ///< 0: no floor
   Mat3 inertia_kgm2 = Mat3::Identity();
+  /// Read Se3LawInput's desired body rates and angular accelerations (control/se3.hpp).
+  bool angular_feed_forward = false;
+};
+
+/// The desired attitude's own motion, in the desired body frame: the body rates and angular
+/// accelerations of the reference's flat attitude (planning/flatness.hpp).
+template <class S>
+struct Se3AngularFeedForward {
+  Vector3<S> angular_velocity_B, angular_acceleration_B;
 };
 
 /// What the law reads for one vehicle (or one pack of vehicles).
@@ -43,6 +52,8 @@ struct Se3LawInput {
   Vector3<S> angular_velocity_B;
   Vector3<S> position_ref_m, velocity_ref_m_s, acceleration_ref_m_s2;
   S cos_yaw, sin_yaw;  ///< of the yaw reference
+  /// Read only with Se3LawConstants::angular_feed_forward.
+  Se3AngularFeedForward<S> feed_forward;
 };
 
 namespace se3_law_detail {
@@ -71,10 +82,14 @@ Vector3<S> unit_or(const Vector3<S>& v, const S& tiny, const Vector3<S>& otherwi
 /// thrust direction b3d and b1d = [cos yaw, sin yaw, 0] (when b3d is parallel to b1d, b2d falls
 /// back on b3d x R e1, then b3d x e3), e_R = 1/2 vee(R_des^T R - R^T R_des) and
 /// M = -K_R e_R - K_w w_B + w_B x J w_B.
+/// With `feed_forward` (w_d, w_d' in the desired frame), the full law of Lee, Leok and
+/// McClamroch (CDC 2010, Eq. 11 and 16): e_w = w_B - R^T R_des w_d and
+/// M = -K_R e_R - K_w e_w + w_B x J w_B - J (w_B x R^T R_des w_d - R^T R_des w_d').
 template <class S>
 Vector3<S> se3_attitude_law(const Matrix3<S>& R, const Vector3<S>& w_B, const Vector3<S>& b3d,
                             const S& cos_yaw, const S& sin_yaw, const Vec3& attitude_p,
-                            const Vec3& attitude_d, const Mat3& J) {
+                            const Vec3& attitude_d, const Mat3& J,
+                            const Se3AngularFeedForward<S>* feed_forward = nullptr) {
   using namespace se3_law_detail;
   const auto c = [](double v) { return scalar::from_value<S>(v); };
   const S zero(0), one = c(1.0), small = c(1e-6);
@@ -95,9 +110,31 @@ Vector3<S> se3_attitude_law(const Matrix3<S>& R, const Vector3<S>& w_B, const Ve
                        half * (m(b2d, 0) - m(b1, 1)));
   using V = scalar::value_type_t<S>;
   const Vector3<S> gyro = w_B.cross(math::ordered_product(J.cast<V>(), w_B));
+  Vector3<S> e_w = w_B;
+  Vector3<S> rel_w, rel_dw;  // R^T R_des w_d and R^T R_des w_d'
+  if (feed_forward != nullptr) {
+    const auto to_body = [&](const Vector3<S>& v_des) {
+      Vector3<S> world, body;
+      for (int k = 0; k < 3; ++k)
+        world[k] = (b1[k] * v_des[0] + b2d[k] * v_des[1]) + b3d[k] * v_des[2];
+      for (int i = 0; i < 3; ++i)
+        body[i] = (R(0, i) * world[0] + R(1, i) * world[1]) + R(2, i) * world[2];
+      return body;
+    };
+    rel_w = to_body(feed_forward->angular_velocity_B);
+    rel_dw = to_body(feed_forward->angular_acceleration_B);
+    for (int i = 0; i < 3; ++i) e_w[i] = w_B[i] - rel_w[i];
+  }
   Vector3<S> M;
   for (int i = 0; i < 3; ++i)
-    M[i] = (-c(attitude_p[i]) * e_R[i] - c(attitude_d[i]) * w_B[i]) + gyro[i];
+    M[i] = (-c(attitude_p[i]) * e_R[i] - c(attitude_d[i]) * e_w[i]) + gyro[i];
+  if (feed_forward != nullptr) {
+    const Vector3<S> w_x_rel = w_B.cross(rel_w);
+    Vector3<S> d;
+    for (int i = 0; i < 3; ++i) d[i] = rel_dw[i] - w_x_rel[i];
+    const Vector3<S> Jd = math::ordered_product(J.cast<V>(), d);
+    for (int i = 0; i < 3; ++i) M[i] = M[i] + Jd[i];
+  }
   return M;
 }
 
@@ -158,7 +195,8 @@ Vector4<S> se3_law(const Se3LawConstants& k, const Se3LawInput<S>& in) {
   if (k.nonnegative_thrust) f = scalar::max(f, zero);
   if (k.min_thrust_N > 0.0) f = scalar::max(f, c(k.min_thrust_N));
   const Vector3<S> M = se3_attitude_law(R, in.angular_velocity_B, b3d, in.cos_yaw, in.sin_yaw,
-                                        k.attitude_p, k.attitude_d, k.inertia_kgm2);
+                                        k.attitude_p, k.attitude_d, k.inertia_kgm2,
+                                        k.angular_feed_forward ? &in.feed_forward : nullptr);
   return Vector4<S>(f, M[0], M[1], M[2]);
 }
 

@@ -67,6 +67,30 @@ struct FlatState {
   bool allocation_saturated = false;
 };
 
+/// The part of the flat state that needs no model: attitude, body rates and angular
+/// accelerations (equations (1)-(4) and their derivative), the thrust per mass and its rate. What
+/// a tracking controller feeds forward (control/se3.hpp).
+struct FlatAttitude {
+  Mat3 R_WB = Mat3::Identity();
+  Vec3 angular_velocity_B_rad_s = Vec3::Zero();
+  Vec3 angular_acceleration_B_rad_s2 = Vec3::Zero();
+  double thrust_per_mass_m_s2 = 0.0;       ///< c = |a + g e3|
+  double thrust_per_mass_rate_m_s3 = 0.0;  ///< c' = z_B . j
+};
+
+/// Why flat_attitude could not answer.
+enum class FlatSingularity {
+  kNone,
+  kFreeFall,            ///< |a + g e3| below kMinThrustPerMass_m_s2
+  kThrustAlongHeading,  ///< |z_B x x_C| below kMinHeadingSine
+};
+
+/// FlatAttitude for flat outputs `f` and gravity g (along -z), without checks and without
+/// throwing: for a controller's inner loop. Returns kNone and fills `out`, or the singularity
+/// (then `out` is unchanged). Non-finite inputs give non-finite outputs; use flat_state() for a
+/// checked answer.
+FlatSingularity flat_attitude(const FlatOutput& f, double gravity_m_s2, FlatAttitude& out);
+
 /// The flat state for flat outputs `f` (gravity g along -z, m/s^2). Throws InvalidArgument on a
 /// non-finite number in `f`, a gravity that is negative or not finite, zero thrust (|a + g e3|
 /// below kMinThrustPerMass_m_s2: free fall) or a thrust direction parallel to the heading,
