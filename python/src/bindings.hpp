@@ -38,6 +38,7 @@ void bind_faults(py::module_& m);
 void bind_battery(py::module_& m);
 void bind_payload(py::module_& m);
 void bind_fleet(py::module_& m);
+void bind_planning(py::module_& m);  // after bind_control: TrajectoryReference is a Reference
 
 /// 'light', 'moderate' or 'severe' (ValueError naming the choices otherwise).
 TurbulenceSeverity severity_from_name(const std::string& name);

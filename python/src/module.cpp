@@ -102,6 +102,7 @@ PYBIND11_MODULE(_core, m) {
   dp::bind_payload(m);
   dp::bind_sim(m);
   dp::bind_control(m);
+  dp::bind_planning(m);  // TrajectoryReference derives from control's Reference
   dp::bind_io(m);
   dp::bind_fleet(m);
   dp::bind_real_data(m);
