@@ -167,7 +167,7 @@ def BatchSe3Controller(model, gains, options, num_vehicles, dtype=_np.float64):
     """The SE(3) controller for every lane of a batch, run inside ``BatchSimulator.step``:
 
         se3 = dt.BatchSe3Controller(model, dt.Se3Gains.thesis(), options, 4096)
-        se3.reference[:, 0:3] = targets              # (N, 17): p, v, a, cos/sin yaw, feed-forward
+        se3.reference[:, 0:3] = targets              # (N, 20): p, v, a, cos/sin yaw, feed-forward
         batch.step(1000, se3)                        # the controller before every physics step
 
     In float64 a lane equals Se3Controller flown by ClosedLoop at the physics rate. ``dtype``

@@ -503,7 +503,10 @@ void bind_control(py::module_& m) {
       .def_readwrite("min_thrust_N", &Se3Options::min_thrust_N)
       .def_readwrite("angular_feed_forward", &Se3Options::angular_feed_forward,
                      "Body-rate and angular-acceleration feed-forward from the reference's jerk "
-                     "and snap (off as printed).");
+                     "and snap (off as printed).")
+      .def_readwrite("drag_feed_forward", &Se3Options::drag_feed_forward,
+                     "Add the force that cancels the model's drag at the reference velocity "
+                     "(off as printed).");
 
   py::class_<Se3Controller, ControllerBase>(
       m, "Se3Controller", "Geometric tracking control on SE(3) (thesis Eq. 3.26-3.29).")

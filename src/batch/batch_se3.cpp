@@ -31,7 +31,7 @@ void BatchSe3Controller<T>::set_reference(int lane, const ReferencePoint& r) {
                       r.acceleration_m_s2.allFinite() && std::isfinite(r.yaw_rad);
   require(finite, "BatchSe3Controller::set_reference: lane ", lane,
           ": expected finite position, velocity, acceleration and yaw");
-  const bool ff = law_.angular_feed_forward;
+  const bool ff = law_.angular_feed_forward || law_.drag_feed_forward;
   require(!ff || (r.jerk_m_s3.allFinite() && r.snap_m_s4.allFinite() &&
                   std::isfinite(r.yaw_rate_rad_s) && std::isfinite(r.yaw_acceleration_rad_s2)),
           "BatchSe3Controller::set_reference: lane ", lane,
@@ -45,11 +45,12 @@ void BatchSe3Controller<T>::set_reference(int lane, const ReferencePoint& r) {
   // As Se3Controller: cos and sin of the yaw in double.
   reference_[9 * n + l] = static_cast<T>(std::cos(r.yaw_rad));
   reference_[10 * n + l] = static_cast<T>(std::sin(r.yaw_rad));
-  const Se3AngularFeedForward<double> w = se3_feed_forward(r, law_.gravity_m_s2, ff);
+  const Se3FeedForward<double> w = se3_feed_forward(r, *model_, law_);
   for (int k = 0; k < 3; ++k) {
     reference_[static_cast<std::size_t>(11 + k) * n + l] = static_cast<T>(w.angular_velocity_B[k]);
     reference_[static_cast<std::size_t>(14 + k) * n + l] =
         static_cast<T>(w.angular_acceleration_B[k]);
+    reference_[static_cast<std::size_t>(17 + k) * n + l] = static_cast<T>(w.drag_compensation_W[k]);
   }
 }
 
@@ -81,10 +82,11 @@ void BatchSe3Controller<T>::references(int pack, const Mask& running, const Stat
   for (int k = 0; k < 4; ++k) in.quaternion[k] = x[kQuaternion + k];
   in.cos_yaw = ref(9);
   in.sin_yaw = ref(10);
-  if (law_.angular_feed_forward)
+  if (law_.angular_feed_forward || law_.drag_feed_forward)
     for (int k = 0; k < 3; ++k) {
       in.feed_forward.angular_velocity_B[k] = ref(11 + k);
       in.feed_forward.angular_acceleration_B[k] = ref(14 + k);
+      in.feed_forward.drag_compensation_W[k] = ref(17 + k);
     }
   allocate_lanes(*model_, se3_law<P>(law_, in), running, reference, failed, &saturated_[base]);
   for (int l = 0; l < kLanes; ++l)

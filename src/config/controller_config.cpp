@@ -88,8 +88,8 @@ constexpr std::array<std::string_view, 2> kYawLoops = {"thesis", "rate"};
 constexpr std::array<std::string_view, 4> kSe3GainKeys = {"position_p", "position_d", "attitude_p",
                                                           "attitude_d"};
 constexpr std::array<std::string_view, 2> kSe3LimitKeys = {"max_tilt_rad", "min_thrust_N"};
-constexpr std::array<std::string_view, 3> kSe3OptionKeys = {
-    "gravity_compensation", "nonnegative_thrust", "angular_feed_forward"};
+constexpr std::array<std::string_view, 4> kSe3OptionKeys = {
+    "gravity_compensation", "nonnegative_thrust", "angular_feed_forward", "drag_feed_forward"};
 constexpr std::array<std::string_view, 3> kSe3PayloadKeys = {"mass_kg", "tether_length_m",
                                                              "shape_reference"};
 
@@ -199,6 +199,8 @@ void read_se3(const Reader& rd, const Map& top, Se3Settings& c) {
     if (p.has("angular_feed_forward"))
       o.angular_feed_forward =
           rd.boolean(p.get("angular_feed_forward"), p.path("angular_feed_forward"));
+    if (p.has("drag_feed_forward"))
+      o.drag_feed_forward = rd.boolean(p.get("drag_feed_forward"), p.path("drag_feed_forward"));
   }
 }
 

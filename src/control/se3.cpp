@@ -6,6 +6,7 @@
 
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/math/quaternion.hpp"
+#include "dronetwin/model/allocation.hpp"
 #include "dronetwin/planning/flatness.hpp"
 
 namespace dronetwin {
@@ -26,10 +27,10 @@ Vec3 se3_attitude_moment(const Mat3& R, const Vec3& w_B, const Vec3& b3d, double
                                   attitude_d, J);
 }
 
-Se3AngularFeedForward<double> se3_feed_forward(const ReferencePoint& ref, double gravity_m_s2,
-                                               bool enabled) {
-  Se3AngularFeedForward<double> ff{Vec3::Zero(), Vec3::Zero()};
-  if (!enabled) return ff;
+Se3FeedForward<double> se3_feed_forward(const ReferencePoint& ref, const VehicleModel& model,
+                                        const Se3LawConstants& k) {
+  Se3FeedForward<double> ff{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  if (!k.angular_feed_forward && !k.drag_feed_forward) return ff;
   planning::FlatOutput f;
   f.position_m = ref.position_m;
   f.velocity_m_s = ref.velocity_m_s;
@@ -41,10 +42,30 @@ Se3AngularFeedForward<double> se3_feed_forward(const ReferencePoint& ref, double
   f.yaw_acceleration_rad_s2 = ref.yaw_acceleration_rad_s2;
   planning::FlatAttitude attitude;
   // Singular reference (free fall, thrust along the heading): no feed-forward this step.
-  if (planning::flat_attitude(f, gravity_m_s2, attitude) != planning::FlatSingularity::kNone)
+  if (planning::flat_attitude(f, k.gravity_m_s2, attitude) != planning::FlatSingularity::kNone)
     return ff;
-  ff.angular_velocity_B = attitude.angular_velocity_B_rad_s;
-  ff.angular_acceleration_B = attitude.angular_acceleration_B_rad_s2;
+  if (k.angular_feed_forward) {
+    ff.angular_velocity_B = attitude.angular_velocity_B_rad_s;
+    ff.angular_acceleration_B = attitude.angular_acceleration_B_rad_s2;
+  }
+  if (k.drag_feed_forward) {
+    // Eq. 2.32 in still air on the flat attitude: F_B = -A v_B - sum C_D |w_i| v_perp,i.
+    const Mat3& R = attitude.R_WB;
+    const Vec3 v_B = R.transpose() * ref.velocity_m_s;
+    const Vec3& w = attitude.angular_velocity_B_rad_s;
+    const Mat3& J = model.inertia_kgm2();
+    GeneralizedForce u;
+    u << model.mass_kg() * attitude.thrust_per_mass_m_s2,
+        J * attitude.angular_acceleration_B_rad_s2 + w.cross(J * w);
+    const RotorVector speeds = allocate_with_saturation(model, u).speeds_rad_s;
+    Vec3 drag_B = -(model.body_drag_Ns_per_m() * v_B);
+    for (int i = 0; i < model.num_rotors(); ++i) {
+      const RotorParams& r = model.rotor(i);
+      const Vec3 v_perp = v_B - r.axis.dot(v_B) * r.axis;
+      drag_B -= r.rotor_drag_coefficient * std::abs(speeds[i]) * v_perp;
+    }
+    ff.drag_compensation_W = -(R * drag_B);
+  }
   return ff;
 }
 
@@ -67,6 +88,7 @@ Se3LawConstants se3_law_constants(const Se3Gains& gains, const Se3Options& optio
   k.min_thrust_N = options.min_thrust_N;
   k.inertia_kgm2 = J;
   k.angular_feed_forward = options.angular_feed_forward;
+  k.drag_feed_forward = options.drag_feed_forward;
   return k;
 }
 
@@ -146,17 +168,16 @@ GeneralizedForce Se3Controller::do_calculate_u(const ControlInput& in) {
     }
   }
   // The law itself is control/se3_law.hpp, shared with the batched controller.
-  Se3LawInput<double> law_in{
-      x.segment<3>(kPosition),
-      x.segment<3>(kVelocity),
-      x.segment<4>(kQuaternion),
-      x.segment<3>(kAngularVelocity),
-      ref.position_m,
-      ref.velocity_m_s,
-      ref.acceleration_m_s2,
-      std::cos(ref.yaw_rad),
-      std::sin(ref.yaw_rad),
-      se3_feed_forward(ref, gains_.gravity_m_s2, options_.angular_feed_forward)};
+  Se3LawInput<double> law_in{x.segment<3>(kPosition),
+                             x.segment<3>(kVelocity),
+                             x.segment<4>(kQuaternion),
+                             x.segment<3>(kAngularVelocity),
+                             ref.position_m,
+                             ref.velocity_m_s,
+                             ref.acceleration_m_s2,
+                             std::cos(ref.yaw_rad),
+                             std::sin(ref.yaw_rad),
+                             se3_feed_forward(ref, model(), law_)};
   return se3_law(law_, law_in);
 }
 

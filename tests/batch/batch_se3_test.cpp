@@ -27,7 +27,7 @@ std::uint64_t bits_of(double x) {
 }
 
 std::vector<Se3Options> option_sets() {
-  std::vector<Se3Options> sets(5);
+  std::vector<Se3Options> sets(7);
   sets[1].gravity_compensation = true;
   sets[2].gravity_compensation = true;
   sets[2].max_tilt_rad = 0.5;
@@ -36,6 +36,11 @@ std::vector<Se3Options> option_sets() {
   sets[4].gravity_compensation = true;
   sets[4].max_tilt_rad = 0.5;
   sets[4].angular_feed_forward = true;
+  sets[5].drag_feed_forward = true;
+  sets[5].nonnegative_thrust = true;
+  sets[6].gravity_compensation = true;
+  sets[6].angular_feed_forward = true;
+  sets[6].drag_feed_forward = true;
   return sets;
 }
 
@@ -111,13 +116,14 @@ TEST(BatchSe3, TheLawOnAPackEqualsSe3ControllerInEveryLane) {
       for (int k = 0; k < 3; ++k) {
         // The feed-forward as the batched controller stores it (set_reference, in double).
         const auto ff = [&](const ControlInput& c) {
-          return se3_feed_forward(c.reference, scalar.law().gravity_m_s2,
-                                  options.angular_feed_forward);
+          return se3_feed_forward(c.reference, *model, scalar.law());
         };
         in.feed_forward.angular_velocity_B[k] =
             lanes([&](const ControlInput& c) { return ff(c).angular_velocity_B[k]; });
         in.feed_forward.angular_acceleration_B[k] =
             lanes([&](const ControlInput& c) { return ff(c).angular_acceleration_B[k]; });
+        in.feed_forward.drag_compensation_W[k] =
+            lanes([&](const ControlInput& c) { return ff(c).drag_compensation_W[k]; });
       }
       const Vector4<P> u = se3_law<P>(scalar.law(), in);
       for (int l = 0; l < W; ++l) {
@@ -187,6 +193,7 @@ void fly_batch_and_closed_loop(bool feed_forward) {
   options.gravity_compensation = true;
   options.max_tilt_rad = 0.6;
   options.angular_feed_forward = feed_forward;
+  options.drag_feed_forward = feed_forward;
   constexpr int N = 13, kSteps = 3000;
   SimConfig cfg;
   BatchSimulator<double> batch(model, cfg, N, 2);

@@ -16,8 +16,9 @@
 // k = 0-2 position (m), 3-5 velocity (m/s), 6-8 acceleration (m/s^2), 9-10 the heading b1d =
 // [cos yaw, sin yaw] of Eq. 3.28 (stored as a unit vector so the loop needs no trigonometry),
 // 11-13 the desired body rates w_des (rad/s) and 14-16 angular accelerations w_dot_des (rad/s^2)
-// of the feed-forward (Se3Options::angular_feed_forward; read only with it). set_reference
-// computes them from the reference's jerk and snap in double, as Se3Controller does each step.
+// of the feed-forward (Se3Options::angular_feed_forward), 17-19 the drag compensation (N, world;
+// Se3Options::drag_feed_forward); read only with those options. set_reference computes them from
+// the reference in double, as Se3Controller does each step.
 // The controller uses the nominal model (its mass in the gains, its inertia and allocation): per
 // lane parameters of the batch change the vehicles, not what the controller believes.
 
@@ -36,7 +37,7 @@ class BatchSe3Controller final : public BatchInnerLoop<T> {
   using typename BatchInnerLoop<T>::Lanes;
   using typename BatchInnerLoop<T>::Mask;
   static constexpr int kLanes = BatchInnerLoop<T>::kLanes;
-  static constexpr int kReferenceSize = 17;
+  static constexpr int kReferenceSize = 20;
 
   /// Gains and options as Se3Controller (the same checks); every lane's reference starts at rest
   /// at the origin with yaw 0.

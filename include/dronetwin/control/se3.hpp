@@ -26,6 +26,12 @@
 // trajectory needs. Where the flat attitude is singular (reference in free fall, thrust along the
 // heading) the feed-forward is 0 for that step. docs/controllers.md, "Feed-forward", measures it.
 //
+// Drag feed-forward (Se3Options::drag_feed_forward; not in the thesis): F gains -F_drag, the
+// frame and rotor drag (Eq. 2.32) of the controller's model at the reference velocity, in still
+// air, on the flat attitude with the rotor speeds the thrust-first allocation gives for the flat
+// thrust and torques. It cancels the drag force to first order (the flat attitude itself is the
+// drag-free one); the rotor drag's moment and the wind are not compensated.
+//
 //   Se3Options options;                          // as printed
 //   options.gravity_compensation = true;         // notes #35
 //   options.max_tilt_rad = 0.6;
@@ -93,16 +99,20 @@ struct Se3Options {
   /// Body-rate and angular-acceleration feed-forward from the reference's jerk and snap (see
   /// above). As printed: off.
   bool angular_feed_forward = false;
+  /// Drag force feed-forward at the reference velocity (see above). As printed: off.
+  bool drag_feed_forward = false;
 };
 
 /// The constants of the law (control/se3_law.hpp) for these gains, options and inertia.
 Se3LawConstants se3_law_constants(const Se3Gains& gains, const Se3Options& options, const Mat3& J);
 
-/// The feed-forward of the SE(3) law for reference `ref` (see above): the body rates and angular
-/// accelerations of its flat attitude; 0 when not `enabled` or where that attitude is singular.
-/// Shared with the batched controller, which computes it per lane when the reference is set.
-Se3AngularFeedForward<double> se3_feed_forward(const ReferencePoint& ref, double gravity_m_s2,
-                                               bool enabled);
+/// The feed-forward of the SE(3) law `k` for reference `ref` and the controller's `model` (see
+/// above): the body rates and angular accelerations of the reference's flat attitude (with
+/// k.angular_feed_forward) and the drag compensation (with k.drag_feed_forward); zero where not
+/// asked for or where the flat attitude is singular. Shared with the batched controller, which
+/// computes it per lane when the reference is set.
+Se3FeedForward<double> se3_feed_forward(const ReferencePoint& ref, const VehicleModel& model,
+                                        const Se3LawConstants& k);
 
 /// The attitude half of the SE(3) law (Eq. 3.27-3.28 with w_des = 0), shared with the NMPC's
 /// inner loop: R_des = [b2d x b3d, b2d, b3d] from the desired thrust direction `b3d` (unit) and

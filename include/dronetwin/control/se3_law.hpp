@@ -35,13 +35,17 @@ struct Se3LawConstants {
   Mat3 inertia_kgm2 = Mat3::Identity();
   /// Read Se3LawInput's desired body rates and angular accelerations (control/se3.hpp).
   bool angular_feed_forward = false;
+  /// Add Se3LawInput's drag compensation to the desired force (control/se3.hpp).
+  bool drag_feed_forward = false;
 };
 
-/// The desired attitude's own motion, in the desired body frame: the body rates and angular
-/// accelerations of the reference's flat attitude (planning/flatness.hpp).
+/// What the reference asks for beyond position, velocity and acceleration (control/se3.hpp):
+/// the body rates and angular accelerations of its flat attitude (planning/flatness.hpp), in the
+/// desired body frame, and the force that cancels the model's drag along it, world frame.
 template <class S>
-struct Se3AngularFeedForward {
+struct Se3FeedForward {
   Vector3<S> angular_velocity_B, angular_acceleration_B;
+  Vector3<S> drag_compensation_W;
 };
 
 /// What the law reads for one vehicle (or one pack of vehicles).
@@ -52,8 +56,8 @@ struct Se3LawInput {
   Vector3<S> angular_velocity_B;
   Vector3<S> position_ref_m, velocity_ref_m_s, acceleration_ref_m_s2;
   S cos_yaw, sin_yaw;  ///< of the yaw reference
-  /// Read only with Se3LawConstants::angular_feed_forward.
-  Se3AngularFeedForward<S> feed_forward;
+  /// Read only with Se3LawConstants::angular_feed_forward or drag_feed_forward.
+  Se3FeedForward<S> feed_forward;
 };
 
 namespace se3_law_detail {
@@ -89,7 +93,7 @@ template <class S>
 Vector3<S> se3_attitude_law(const Matrix3<S>& R, const Vector3<S>& w_B, const Vector3<S>& b3d,
                             const S& cos_yaw, const S& sin_yaw, const Vec3& attitude_p,
                             const Vec3& attitude_d, const Mat3& J,
-                            const Se3AngularFeedForward<S>* feed_forward = nullptr) {
+                            const Se3FeedForward<S>* feed_forward = nullptr) {
   using namespace se3_law_detail;
   const auto c = [](double v) { return scalar::from_value<S>(v); };
   const S zero(0), one = c(1.0), small = c(1e-6);
@@ -163,6 +167,8 @@ Vector4<S> se3_law(const Se3LawConstants& k, const Se3LawInput<S>& in) {
     F[i] = (c(k.position_p[i]) * e_p + c(k.position_d[i]) * e_v) + m * in.acceleration_ref_m_s2[i];
   }
   if (k.gravity_compensation) F[2] = F[2] + c(k.mass_kg * k.gravity_m_s2);
+  if (k.drag_feed_forward)
+    for (int i = 0; i < 3; ++i) F[i] = F[i] + in.feed_forward.drag_compensation_W[i];
 
   // Desired thrust direction b3d; |F| below a micro-newton carries none: keep e3.
   const S tiny = c(1e-6 * k.mass_kg * k.gravity_m_s2);
