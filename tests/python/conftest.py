@@ -31,6 +31,18 @@ def cli():
     return path
 
 
+def flying_se3():
+    """Gains and options of config/controllers/se3.yaml: Eq. 3.29 with a faster attitude loop,
+    the gravity term, a 0.5 rad tilt cone and non-negative thrust."""
+    options = dt.Se3Options()
+    options.gravity_compensation = True
+    options.max_tilt_rad = 0.5
+    options.nonnegative_thrust = True
+    gains = dt.Se3Gains.thesis()
+    gains.attitude_d = [0.8, 0.8, 0.05]
+    return gains, options
+
+
 def hovering(model, cfg):
     """A simulator at rest 2 m up, rotors at hover speed and the hover speeds as reference."""
     sim = dt.Simulator(model, cfg)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import dronetwin as dt
+from conftest import flying_se3
 
 
 def test_state_is_a_live_lane_by_row_view(qdrone2):
@@ -173,13 +174,7 @@ def test_noise_gives_a_read_only_measured_state_seeded_per_lane(qdrone2):
 
 def test_batched_se3_flies_every_lane_to_its_setpoint_like_the_closed_loop(qdrone2):
     n = 5
-    # The flying configuration of config/controllers/se3.yaml.
-    options = dt.Se3Options()
-    options.gravity_compensation = True
-    options.max_tilt_rad = 0.5
-    options.nonnegative_thrust = True
-    gains = dt.Se3Gains.thesis()
-    gains.attitude_d = [0.8, 0.8, 0.05]
+    gains, options = flying_se3()
     batch = dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=n, num_threads=2)
     se3 = dt.BatchSe3Controller(qdrone2, gains, options, n)
     batch.reset(None, dt.Simulator.hover_state([0, 0, 1]), qdrone2.hover_speeds_rad_s())

@@ -12,9 +12,10 @@ def explained(doc, name):
     return any(not ln.lstrip().startswith((name + "(", "Overloaded function", "1. ", "2. ")) for ln in lines)
 
 
-def undocumented():
+def undocumented(module=core):
+    """Names in `module` (the extension, or a submodule such as dronetwin.planning) without one."""
     missing = []
-    for cname, obj in vars(core).items():
+    for cname, obj in vars(module).items():
         if cname.startswith("_"):
             continue
         if inspect.isclass(obj):

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import dronetwin as dt
-from test_docs import explained
+from conftest import flying_se3
+from test_docs import undocumented
 
 pl = dt.planning
 G = 9.81
@@ -360,12 +361,7 @@ def test_trajectory_reference_is_the_trajectory_shifted_by_its_start():
 def test_se3_flies_a_trajectory_reference_to_its_end(qdrone2):
     traj = gentle_plan()
     ref = dt.TrajectoryReference(traj, start_time_s=0.5)
-    options = dt.Se3Options()
-    options.gravity_compensation = True
-    options.max_tilt_rad = 0.5
-    options.nonnegative_thrust = True
-    gains = dt.Se3Gains.thesis()
-    gains.attitude_d = [0.8, 0.8, 0.05]
+    gains, options = flying_se3()
     sim = dt.Simulator(qdrone2, dt.SimConfig())
     sim.reset(dt.Simulator.hover_state([0.0, 0.0, 1.0]), qdrone2.hover_speeds_rad_s())
     loop = dt.ClosedLoop(sim, dt.Se3Controller(qdrone2, gains, options), ref, 500.0)
@@ -411,23 +407,7 @@ def test_planning_is_importable_as_a_module():
 
 
 def test_everything_in_planning_is_documented():
-    missing = []
-    for name, obj in vars(pl).items():
-        if name.startswith("_"):
-            continue
-        if isinstance(obj, type):
-            if not explained(obj.__doc__, name):
-                missing.append(name)
-            for member_name, member in vars(obj).items():
-                if member_name.startswith("_") or not callable(member) or isinstance(member, type):
-                    continue
-                if type(member).__name__ not in ("instancemethod", "builtin_function_or_method"):
-                    continue
-                if not explained(member.__doc__, member_name):
-                    missing.append(f"{name}.{member_name}")
-        elif callable(obj) and not explained(obj.__doc__, name):
-            missing.append(name)
-    assert missing == []
+    assert undocumented(pl) == []
 
 
 # ---- errors ---------------------------------------------------------------------------------
