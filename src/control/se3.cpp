@@ -5,6 +5,8 @@
 #include <numbers>
 
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/dynamics/body_drag.hpp"
+#include "dronetwin/dynamics/rotor.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/model/allocation.hpp"
 #include "dronetwin/planning/flatness.hpp"
@@ -49,22 +51,25 @@ Se3FeedForward<double> se3_feed_forward(const ReferencePoint& ref, const Vehicle
     ff.angular_acceleration_B = attitude.angular_acceleration_B_rad_s2;
   }
   if (k.drag_feed_forward) {
-    // Eq. 2.32 in still air on the flat attitude: F_B = -A v_B - sum C_D |w_i| v_perp,i.
+    // Eq. 2.32 in still air on the flat state, through the force kernel's own linear drag maps
+    // (dynamics/body_drag.hpp, dynamics/rotor.hpp) of [v_B; w_B]: the frame's, and each rotor's
+    // times C_D |w_i| at the speeds the allocation gives for the flat thrust and torques.
     const Mat3& R = attitude.R_WB;
-    const Vec3 v_B = R.transpose() * ref.velocity_m_s;
     const Vec3& w = attitude.angular_velocity_B_rad_s;
     const Mat3& J = model.inertia_kgm2();
     GeneralizedForce u;
     u << model.mass_kg() * attitude.thrust_per_mass_m_s2,
         J * attitude.angular_acceleration_B_rad_s2 + w.cross(J * w);
     const RotorVector speeds = allocate_with_saturation(model, u).speeds_rad_s;
-    Vec3 drag_B = -(model.body_drag_Ns_per_m() * v_B);
+    Matrix6<double> drag_map = body_drag_map<double>(model.body_drag_Ns_per_m());
     for (int i = 0; i < model.num_rotors(); ++i) {
       const RotorParams& r = model.rotor(i);
-      const Vec3 v_perp = v_B - r.axis.dot(v_B) * r.axis;
-      drag_B -= r.rotor_drag_coefficient * std::abs(speeds[i]) * v_perp;
+      drag_map += r.rotor_drag_coefficient * std::abs(speeds[i]) *
+                  rotor_drag_map<double>(r.position_m, r.axis);
     }
-    ff.drag_compensation_W = -(R * drag_B);
+    Vector6<double> air_and_rate;
+    air_and_rate << R.transpose() * ref.velocity_m_s, w;
+    ff.drag_compensation_W = -(R * (drag_map * air_and_rate).head<3>());
   }
   return ff;
 }

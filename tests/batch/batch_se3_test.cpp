@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "dronetwin/control/closed_loop.hpp"
 #include "dronetwin/math/quaternion.hpp"
@@ -311,6 +312,17 @@ TEST(BatchSe3, BadReferencesAndMismatchedBatchesAreRefusedOrStopTheirLane) {
   EXPECT_NE(test::error_of([&] { se3.set_reference(2, bad); }).find("lane 2"), std::string::npos);
   EXPECT_NE(test::error_of([&] { se3.set_reference(6, ReferencePoint{}); }).find("out of range"),
             std::string::npos);
+  // With a feed-forward the reference's jerk, snap and yaw derivatives must be finite too.
+  Se3Options feed_forward;
+  feed_forward.angular_feed_forward = true;
+  BatchSe3Controller<double> ff(model, Se3Gains::thesis(), feed_forward, 6);
+  ReferencePoint bad_snap;
+  bad_snap.snap_m_s4[1] = std::numeric_limits<double>::infinity();
+  EXPECT_NE(test::error_of([&] {
+              ff.set_reference(3, bad_snap);
+            }).find("lane 3: expected finite jerk, snap, yaw rate and yaw acceleration"),
+            std::string::npos);
+  se3.set_reference(3, bad_snap);  // without a feed-forward they are not read
   // A NaN written into a lane's reference array stops that lane, as a controller failure.
   se3.reference_data()[static_cast<std::size_t>(0 * se3.stride() + 3)] = std::nan("");
   EXPECT_EQ(batch.step(10, se3), 1);

@@ -527,12 +527,57 @@ namespace {
 // follows the thesis circle; the gate and distance terms, switched on, are their weights times
 // the gates passed (none here) and the distance to the target.
 TEST(VecEnvTrajectory, FollowingTheObservedOffsetTracksTheReference) {
+  auto env = make_env("trajectory", 2, "{reward: {distance: -0.1, gate: 2.0}}");
+  ASSERT_EQ(env.observation_layout()[0].piece, ObservationPiece::kTargetRelative);
+  std::vector<double> act(6);
+  double last_gap = 0.0;
+  for (int t = 0; t < 300; ++t) {  // 3 s, beyond the first 0.5 s of catching up
+    const double* o = env.observation<double>();
+    for (int e = 0; e < 2; ++e)
+      for (int k = 0; k < 3; ++k)
+        act[static_cast<std::size_t>(3 * e + k)] =
+            std::clamp(o[env.observation_size() * e + k], -1.0, 1.0);
+    env.step(act.data());
+    ASSERT_FALSE(env.done_data()[0]) << kEndCauseNames[env.end_cause_data()[0]];
+    const Vec3 p = env.batch().state(0).segment<3>(0);
+    last_gap = (env.target(0) - p).norm();
+    EXPECT_DOUBLE_EQ(env.reward_terms_data()[5 * 2 + 0], -0.1 * last_gap);
+    EXPECT_EQ(env.reward_terms_data()[4 * 2 + 0], 0.0);
+  }
+  // The circle moves at 1.8 m/s; a proportional chase lags it, but stays within half a metre.
+  EXPECT_LT(last_gap, 0.5);
+}
+
+// The gate term pays its weight once per gate passed.
+TEST(VecEnvReward, TheGateTermPaysPerGate) {
+  auto env = make_env("racing", 1,
+                      "{racing: {track: ../tracks/straight.yaml, laps: 1}, reward: {gate: 2.5}}");
+  double paid = 0.0;
+  int passed = 0;
+  std::vector<double> act(3);
+  for (int t = 0; t < 2000 && !env.done_data()[0]; ++t) {
+    const Vec3 p = env.batch().state(0).segment<3>(0);
+    const Gate& g = env.config().track.gates[static_cast<std::size_t>(env.next_gate_data()[0])];
+    const Vec3 d = 0.5 * (g.center_m + 0.5 * g.normal() - p);
+    for (int k = 0; k < 3; ++k) act[static_cast<std::size_t>(k)] = std::clamp(d[k], -1.0, 1.0);
+    const int before = env.gates_passed_data()[0];
+    env.step(act.data());
+    paid += env.reward_terms_data()[4];
+    passed += env.done_data()[0] ? env.finished_gates_data()[0] - before
+                                 : env.gates_passed_data()[0] - before;
+  }
+  EXPECT_EQ(passed, 3);
+  EXPECT_DOUBLE_EQ(paid, 2.5 * 3);
+}
+
+// The trajectory task reads its reference as experiment files do, so a minimum-snap plan is a
+// task too: the target is the plan (started at the episode's start with no time offset).
+TEST(VecEnvTasks, TheTrajectoryTaskFollowsAMinimumSnapPlan) {
   // The shipped file with its circle replaced (overrides would merge the circle's keys in).
   const std::string path = test::source_path("config/rl/trajectory.yaml");
   std::string text = read_text_file(path, "env file");
   const std::string circle =
-      "reference: {type: circle, center_m: [0, 0, 1.5], radius_m: 2.0, "
-      "period_s: 7.0}";
+      "reference: {type: circle, center_m: [0, 0, 1.5], radius_m: 2.0, period_s: 7.0}";
   ASSERT_NE(text.find(circle), std::string::npos);
   text.replace(text.find(circle), circle.size(),
                "reference: {type: min_snap, points: [{time_s: 0, position_m: [0, 0, 1.5]}, "
