@@ -108,7 +108,8 @@ const Names kCircleKeys = {"type", "center_m", "radius_m", "period_s", "yaw_rad"
 const Names kFigureEightKeys = {"type", "center_m", "amplitude_x_m", "amplitude_y_m", "period_s"};
 const Names kWaypointsKeys = {"type", "points"};
 const Names kWaypointKeys = {"time_s", "position_m", "yaw_rad"};
-const Names kMinSnapKeys = {"type", "points", "start_s", "time_weight", "unwrap_yaw"};
+const Names kMinSnapKeys = {"type",    "points",      "track",     "laps",
+                            "start_s", "time_weight", "unwrap_yaw"};
 const Names kMinSnapPointKeys = {"time_s", "position_m", "yaw_rad", "velocity_m_s",
                                  "acceleration_m_s2"};
 // `sensors:` items: the keys every sensor has, then each type's own (kSensorTypeNames order).
@@ -554,10 +555,89 @@ std::vector<TimedPoint> read_timed_points(const Reader& rd, const YAML::Node& li
   return points;
 }
 
-/// `type: min_snap`: a minimum-snap plan (planning/min_snap.hpp) through `points`, flown from
-/// `start_s` (default 0). Either every point has a time_s (the first 0, strictly increasing) or
-/// none has and `time_weight` (rho > 0) allocates the segment times (minimum snap + rho T).
+/// The min_snap reference's plan through `waypoints`: `segment_times_s`, or allocated by
+/// `time_weight`; `start_s` and `unwrap_yaw` (default `unwrap_by_default`) from `m`.
+std::shared_ptr<const Reference> plan_reference(const Reader& rd, const Map& m,
+                                                const std::vector<planning::Waypoint>& waypoints,
+                                                std::vector<double> segment_times_s,
+                                                bool unwrap_by_default) {
+  const bool allocate = m.has("time_weight");
+  planning::MinSnapOptions options;
+  options.unwrap_yaw = unwrap_by_default;
+  if (m.has("unwrap_yaw"))
+    options.unwrap_yaw = rd.boolean(m.get("unwrap_yaw"), m.path("unwrap_yaw"));
+  const double start_s = m.has("start_s") ? rd.number(m.get("start_s"), m.path("start_s")) : 0.0;
+  if (start_s < 0.0)
+    rd.fail(m.get("start_s"), m.path("start_s"),
+            "expected a time >= 0 s, got " + m.get("start_s").Scalar());
+  try {
+    if (allocate) {
+      const YAML::Node rho = m.get("time_weight");
+      planning::TimeAllocationOptions allocation;
+      allocation.min_snap = options;  // the yaw steps the plan takes, unwrapped or not
+      segment_times_s = planning::allocate_segment_times(
+          waypoints, rd.positive(rho, m.path("time_weight")), allocation);
+    }
+    return std::make_shared<const TrajectoryReference>(
+        planning::plan_min_snap(waypoints, segment_times_s, options), start_s);
+  } catch (const InvalidArgument& e) {
+    // Duplicate or non-finite points: the planner names waypoints[i], which is points[i] (or,
+    // for a track, the start for i = 0 and else the (i - 1)-th gate passed).
+    const std::string where = m.has("track") ? "track" : "points";
+    rd.fail(m.get(where), m.path(where), e.what());
+  }
+}
+
+std::string resolve_file(const Reader& rd, const YAML::Node& node, const std::string& path,
+                         const std::string& given_text, const std::string& what);
+
+/// The waypoints of `track:` (a track file, docs/track-format.md): the start, then every gate's
+/// centre `laps` times, each facing along its gate's passage direction (the start: the track's
+/// start yaw). A gate has no time, so `time_weight` must allocate them.
+std::vector<planning::Waypoint> track_waypoints(const Reader& rd, const Map& m) {
+  const YAML::Node node = m.get("track");
+  if (m.has("points"))
+    rd.fail(m.get("points"), m.path("points"),
+            "expected either points or track, not both (track: the start and the gates are the "
+            "points)");
+  if (!m.has("time_weight"))
+    rd.fail(node, m.path("track"),
+            "a track's gates have no times: give time_weight (rho > 0) to allocate them");
+  const std::string file =
+      resolve_file(rd, node, m.path("track"), rd.string(node, m.path("track")), "track");
+  Track track;
+  try {
+    track = load_track(file);
+  } catch (const InvalidArgument& e) {
+    rd.fail(node, m.path("track"), e.what());
+  }
+  if (track.gates.empty())
+    rd.fail(node, m.path("track"), "track '" + file + "' has no gates to plan through");
+  const int laps =
+      m.has("laps") ? rd.integer<int>(m.get("laps"), m.path("laps"), "an integer in [1, 1000]") : 1;
+  if (laps < 1 || laps > 1000)
+    rd.fail(m.get("laps"), m.path("laps"),
+            "expected an integer in [1, 1000], got " + m.get("laps").Scalar());
+  if (laps > 1 && !track.closed)
+    rd.fail(m.get("laps"), m.path("laps"),
+            "track '" + file + "' is open (one pass through its gates); expected laps: 1, got " +
+                m.get("laps").Scalar());
+  std::vector<planning::Waypoint> waypoints;
+  waypoints.push_back({track.start_position_m, track.start_yaw_rad, {}, {}});
+  for (int lap = 0; lap < laps; ++lap)
+    for (const Gate& g : track.gates)
+      waypoints.push_back({g.center_m, std::atan2(g.normal().y(), g.normal().x()), {}, {}});
+  return waypoints;
+}
+
+/// `type: min_snap`: a minimum-snap plan (planning/min_snap.hpp) through `points` or through a
+/// `track`'s start and gates (`laps` times; yaw unwrapped by default), flown from `start_s`
+/// (default 0). Either every point has a time_s (the first 0, strictly increasing) or none has
+/// and `time_weight` (rho > 0) allocates the segment times (minimum snap + rho T).
 std::shared_ptr<const Reference> read_min_snap(const Reader& rd, const Map& m) {
+  if (!m.has("track") && m.has("laps"))
+    rd.fail(m.get("laps"), m.path("laps"), "laps goes with track; no track is given");
+  if (m.has("track")) return plan_reference(rd, m, track_waypoints(rd, m), {}, true);
   const YAML::Node list = m.required("points");
   const std::string path = m.path("points");
   const std::string item = "a map {" + name_list(kMinSnapPointKeys) + "}";
@@ -599,25 +679,7 @@ std::shared_ptr<const Reference> read_min_snap(const Reader& rd, const Map& m) {
     if (i > 0) segment_times_s.push_back(t - last_time_s);
     last_time_s = t;
   }
-  planning::MinSnapOptions options;
-  if (m.has("unwrap_yaw"))
-    options.unwrap_yaw = rd.boolean(m.get("unwrap_yaw"), m.path("unwrap_yaw"));
-  const double start_s = m.has("start_s") ? rd.number(m.get("start_s"), m.path("start_s")) : 0.0;
-  if (start_s < 0.0)
-    rd.fail(m.get("start_s"), m.path("start_s"),
-            "expected a time >= 0 s, got " + m.get("start_s").Scalar());
-  try {
-    if (allocate) {
-      const YAML::Node rho = m.get("time_weight");
-      segment_times_s =
-          planning::allocate_segment_times(waypoints, rd.positive(rho, m.path("time_weight")));
-    }
-    return std::make_shared<const TrajectoryReference>(
-        planning::plan_min_snap(waypoints, segment_times_s, options), start_s);
-  } catch (const InvalidArgument& e) {
-    // Duplicate or non-finite points: the planner names waypoints[i], which is points[i] here.
-    rd.fail(list, path, e.what());
-  }
+  return plan_reference(rd, m, waypoints, segment_times_s, false);
 }
 
 /// `reference:` of a controller input: a Reference (control/reference.hpp) and its type name.

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "dronetwin/config/model_loader.hpp"
+#include "dronetwin/config/track_loader.hpp"
 #include "dronetwin/control/trajectory_reference.hpp"
 #include "dronetwin/core/error.hpp"
 #include "dronetwin/math/quaternion.hpp"
@@ -436,6 +437,44 @@ TEST(ExperimentController, EveryReferenceType) {
       " {position_m: [2, 0, 1], yaw_rad: 1.0}, {position_m: [2, 2, 1.5]}]}");
   expect_same_reference(*in.reference, TrajectoryReference(planning::plan_min_snap(
                                            w, planning::allocate_segment_times(w, 20.0))));
+
+  // min_snap through a track: its start, then every gate's centre facing its passage direction,
+  // laps times, yaw unwrapped; the times allocated by time_weight.
+  const std::string circuit = test::source_path("config/tracks/circuit.yaml");
+  const Track track = load_track(circuit);
+  std::vector<planning::Waypoint> gates{{track.start_position_m, track.start_yaw_rad, {}, {}}};
+  for (int lap = 0; lap < 2; ++lap)
+    for (const Gate& g : track.gates)
+      gates.push_back({g.center_m, std::atan2(g.normal().y(), g.normal().x()), {}, {}});
+  planning::TimeAllocationOptions unwrapped;
+  unwrapped.min_snap.unwrap_yaw = true;
+  in = parse_loop("{type: min_snap, time_weight: 100, laps: 2, track: '" + circuit + "'}");
+  EXPECT_EQ(in.reference_type, "min_snap");
+  expect_same_reference(
+      *in.reference,
+      TrajectoryReference(planning::plan_min_snap(
+          gates, planning::allocate_segment_times(gates, 100.0, unwrapped), unwrapped.min_snap)));
+  // Independently of the planner: it starts at the start, at rest, and passes every gate centre
+  // (the knots) in order, twice, turning two full turns of heading (counter-clockwise).
+  const auto* plan = dynamic_cast<const TrajectoryReference*>(in.reference.get());
+  ASSERT_NE(plan, nullptr);
+  const std::vector<double>& knots = plan->trajectory().knot_times_s();
+  ASSERT_EQ(knots.size(), 2 * track.gates.size() + 1);
+  EXPECT_EQ(in.reference->at(0.0).position_m, track.start_position_m);
+  EXPECT_EQ(in.reference->at(0.0).velocity_m_s, Vec3::Zero());
+  for (std::size_t i = 1; i < knots.size(); ++i) {
+    const Gate& g = track.gates[(i - 1) % track.gates.size()];
+    EXPECT_LT((in.reference->at(knots[i]).position_m - g.center_m).norm(), 1e-9) << i;
+  }
+  const double turned_rad = in.reference->at(knots.back()).yaw_rad - in.reference->at(0.0).yaw_rad;
+  const double last_gate_yaw =
+      std::atan2(track.gates.back().normal().y(), track.gates.back().normal().x());
+  EXPECT_NEAR(turned_rad, 4.0 * std::numbers::pi + last_gate_yaw - track.start_yaw_rad, 1e-9);
+  // One lap by default.
+  in = parse_loop("{type: min_snap, time_weight: 100, track: '" + circuit + "'}");
+  const auto* one_lap = dynamic_cast<const TrajectoryReference*>(in.reference.get());
+  ASSERT_NE(one_lap, nullptr);
+  EXPECT_EQ(one_lap->trajectory().segments().size(), track.gates.size());
 }
 
 TEST(ExperimentController, ControllerPathIsRelativeToTheExperimentFileFirst) {
@@ -628,6 +667,24 @@ TEST(ExperimentController, InlineDefectsNameTheirFields) {
   has(msg("{type: min_snap, points: [{time_s: 0, position_m: [0, 0, 1], speed: 2}, "
           "{time_s: 1, position_m: [1, 0, 1]}]}"),
       "input.reference.points[0]: unknown key 'speed'");
+  const std::string circuit = test::source_path("config/tracks/circuit.yaml");
+  has(msg("{type: min_snap, track: '" + circuit + "'}"),
+      "input.reference.track: a track's gates have no times: give time_weight");
+  has(msg("{type: min_snap, time_weight: 1, track: '" + circuit +
+          "', points: [{position_m: [0, 0, 1]}, {position_m: [1, 0, 1]}]}"),
+      "input.reference.points: expected either points or track, not both");
+  has(msg("{type: min_snap, time_weight: 1, track: no_such_track.yaml}"),
+      "track file 'no_such_track.yaml' not found");
+  has(msg("{type: min_snap, time_weight: 1, laps: 0, track: '" + circuit + "'}"),
+      "input.reference.laps: expected an integer in [1, 1000], got 0");
+  has(msg("{type: min_snap, time_weight: 1, laps: 1.5, track: '" + circuit + "'}"),
+      "input.reference.laps: expected an integer in [1, 1000]");
+  has(msg("{type: min_snap, time_weight: 1, laps: 2, track: '" +
+          test::source_path("config/tracks/straight.yaml") + "'}"),
+      "is open (one pass through its gates); expected laps: 1, got 2");
+  has(msg("{type: min_snap, laps: 2, points: [{time_s: 0, position_m: [0, 0, 1]}, "
+          "{time_s: 1, position_m: [1, 0, 1]}]}"),
+      "input.reference.laps: laps goes with track; no track is given");
 
   // metrics
   has(msg("{type: circle}", "", "metrics: {window_s: [3, 1]}\n"),
