@@ -601,5 +601,36 @@ TEST(VecEnvTasks, TheTrajectoryTaskFollowsAMinimumSnapPlan) {
   }
 }
 
+TEST(VecEnvTasks, TheTrajectoryTaskFollowsAMinimumSnapPlanThroughATracksGates) {
+  // reference: {type: min_snap, track: ...}: the track path resolves against the env file's
+  // folder, and the target is the plan through the start and the gate centres.
+  const std::string path = test::source_path("config/rl/trajectory.yaml");
+  std::string text = read_text_file(path, "env file");
+  const std::string circle =
+      "reference: {type: circle, center_m: [0, 0, 1.5], radius_m: 2.0, period_s: 7.0}";
+  ASSERT_NE(text.find(circle), std::string::npos);
+  text.replace(text.find(circle), circle.size(),
+               "reference: {type: min_snap, track: ../tracks/circuit.yaml, time_weight: 300}");
+  const EnvFile f = parse_env_config(text, path, "{trajectory: {time_offset_max_s: 0}}");
+  VecEnv<double> env(f.model, f.config, 2, 1);
+  const Track track = load_track(test::source_path("config/tracks/circuit.yaml"));
+  std::vector<planning::Waypoint> w{{track.start_position_m, track.start_yaw_rad, {}, {}}};
+  for (const Gate& g : track.gates)
+    w.push_back({g.center_m, std::atan2(g.normal().y(), g.normal().x()), {}, {}});
+  planning::TimeAllocationOptions unwrapped;
+  unwrapped.min_snap.unwrap_yaw = true;
+  const TrajectoryReference expected(planning::plan_min_snap(
+      w, planning::allocate_segment_times(w, 300.0, unwrapped), unwrapped.min_snap));
+  env.reset(3);
+  EXPECT_EQ(env.target(0), track.start_position_m);
+  const std::vector<double> zero(static_cast<std::size_t>(2 * env.action_size()), 0.0);
+  for (int k = 0; k < 10; ++k) {
+    const double t = k * env.control_dt_s();
+    for (int e = 0; e < 2; ++e)
+      EXPECT_EQ(env.target(e), expected.at(t).position_m) << "env " << e << " t = " << t;
+    env.step(zero.data());
+  }
+}
+
 }  // namespace
 }  // namespace dronetwin::rl
