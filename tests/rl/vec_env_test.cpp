@@ -572,25 +572,20 @@ TEST(VecEnvReward, TheGateTermPaysPerGate) {
 
 // The trajectory task reads its reference as experiment files do, so a minimum-snap plan is a
 // task too: the target is the plan (started at the episode's start with no time offset).
-TEST(VecEnvTasks, TheTrajectoryTaskFollowsAMinimumSnapPlan) {
-  // The shipped file with its circle replaced (overrides would merge the circle's keys in).
+// The shipped trajectory env file with its circle replaced by `reference` (overrides would merge
+// the circle's keys in), parsed from its own path, every episode from the reference's start.
+EnvFile trajectory_env_with(const std::string& reference) {
   const std::string path = test::source_path("config/rl/trajectory.yaml");
   std::string text = read_text_file(path, "env file");
   const std::string circle =
       "reference: {type: circle, center_m: [0, 0, 1.5], radius_m: 2.0, period_s: 7.0}";
-  ASSERT_NE(text.find(circle), std::string::npos);
-  text.replace(text.find(circle), circle.size(),
-               "reference: {type: min_snap, points: [{time_s: 0, position_m: [0, 0, 1.5]}, "
-               "{time_s: 2, position_m: [2, 1, 1.5], yaw_rad: 0.5}, "
-               "{time_s: 4, position_m: [0, 2, 2]}]}");
-  const EnvFile f = parse_env_config(text, path, "{trajectory: {time_offset_max_s: 0}}");
-  VecEnv<double> env(f.model, f.config, 2, 1);
-  std::vector<planning::Waypoint> w(3);
-  w[0].position_m = Vec3(0, 0, 1.5);
-  w[1].position_m = Vec3(2, 1, 1.5);
-  w[1].yaw_rad = 0.5;
-  w[2].position_m = Vec3(0, 2, 2);
-  const TrajectoryReference expected(planning::plan_min_snap(w, {2.0, 2.0}));
+  EXPECT_NE(text.find(circle), std::string::npos);
+  text.replace(text.find(circle), circle.size(), reference);
+  return parse_env_config(text, path, "{trajectory: {time_offset_max_s: 0}}");
+}
+
+// Over 10 control steps with zero actions, both envs' targets are `expected`'s positions.
+void expect_targets_follow(VecEnv<double>& env, const Reference& expected) {
   env.reset(3);
   const std::vector<double> zero(static_cast<std::size_t>(2 * env.action_size()), 0.0);
   for (int k = 0; k < 10; ++k) {
@@ -601,17 +596,25 @@ TEST(VecEnvTasks, TheTrajectoryTaskFollowsAMinimumSnapPlan) {
   }
 }
 
+TEST(VecEnvTasks, TheTrajectoryTaskFollowsAMinimumSnapPlan) {
+  const EnvFile f = trajectory_env_with(
+      "reference: {type: min_snap, points: [{time_s: 0, position_m: [0, 0, 1.5]}, "
+      "{time_s: 2, position_m: [2, 1, 1.5], yaw_rad: 0.5}, "
+      "{time_s: 4, position_m: [0, 2, 2]}]}");
+  VecEnv<double> env(f.model, f.config, 2, 1);
+  std::vector<planning::Waypoint> w(3);
+  w[0].position_m = Vec3(0, 0, 1.5);
+  w[1].position_m = Vec3(2, 1, 1.5);
+  w[1].yaw_rad = 0.5;
+  w[2].position_m = Vec3(0, 2, 2);
+  expect_targets_follow(env, TrajectoryReference(planning::plan_min_snap(w, {2.0, 2.0})));
+}
+
 TEST(VecEnvTasks, TheTrajectoryTaskFollowsAMinimumSnapPlanThroughATracksGates) {
   // reference: {type: min_snap, track: ...}: the track path resolves against the env file's
   // folder, and the target is the plan through the start and the gate centres.
-  const std::string path = test::source_path("config/rl/trajectory.yaml");
-  std::string text = read_text_file(path, "env file");
-  const std::string circle =
-      "reference: {type: circle, center_m: [0, 0, 1.5], radius_m: 2.0, period_s: 7.0}";
-  ASSERT_NE(text.find(circle), std::string::npos);
-  text.replace(text.find(circle), circle.size(),
-               "reference: {type: min_snap, track: ../tracks/circuit.yaml, time_weight: 300}");
-  const EnvFile f = parse_env_config(text, path, "{trajectory: {time_offset_max_s: 0}}");
+  const EnvFile f = trajectory_env_with(
+      "reference: {type: min_snap, track: ../tracks/circuit.yaml, time_weight: 300}");
   VecEnv<double> env(f.model, f.config, 2, 1);
   const Track track = load_track(test::source_path("config/tracks/circuit.yaml"));
   std::vector<planning::Waypoint> w{{track.start_position_m, track.start_yaw_rad, {}, {}}};
@@ -621,15 +624,8 @@ TEST(VecEnvTasks, TheTrajectoryTaskFollowsAMinimumSnapPlanThroughATracksGates) {
   unwrapped.min_snap.unwrap_yaw = true;
   const TrajectoryReference expected(planning::plan_min_snap(
       w, planning::allocate_segment_times(w, 300.0, unwrapped), unwrapped.min_snap));
-  env.reset(3);
-  EXPECT_EQ(env.target(0), track.start_position_m);
-  const std::vector<double> zero(static_cast<std::size_t>(2 * env.action_size()), 0.0);
-  for (int k = 0; k < 10; ++k) {
-    const double t = k * env.control_dt_s();
-    for (int e = 0; e < 2; ++e)
-      EXPECT_EQ(env.target(e), expected.at(t).position_m) << "env " << e << " t = " << t;
-    env.step(zero.data());
-  }
+  EXPECT_EQ(expected.at(0.0).position_m, track.start_position_m);
+  expect_targets_follow(env, expected);
 }
 
 }  // namespace
