@@ -255,6 +255,29 @@ class VectorEnv:
         """(num_envs, 13) true states (a copy)."""
         return self._env.state()
 
+    def rotor_speeds(self):
+        """(num_envs, num_rotors) achieved rotor speeds, rad/s (a copy)."""
+        return self._env.rotor_speeds()
+
+    def final_states(self):
+        """(num_envs, 13) state each episode that ended in the last step reached before the
+        auto-reset replaced it (valid where ``info["_episode"]``; a copy)."""
+        return self._env.final_state()
+
+    def final_rotor_speeds(self):
+        """(num_envs, num_rotors) rotor speeds each ended episode reached, rad/s (a copy)."""
+        return self._env.final_rotor_speeds()
+
+    @property
+    def track(self):
+        """The env's Track (racing: its gates; every task: its obstacles)."""
+        return self._env.track
+
+    @property
+    def rotor_positions_m(self):
+        """(num_rotors, 3) hub positions of the airframe, body frame, m."""
+        return self._env.rotor_positions_m
+
     @property
     def gates(self):
         """(num_gates, 4, 3) gate-opening corners of the racing track."""

@@ -2,7 +2,7 @@
 
     /usr/bin/python3 -m dronetwin.train train config/training/hover_ctbr.yaml --out runs/hover
     /usr/bin/python3 -m dronetwin.train evaluate models/policies/hover_ctbr.dtpolicy \\
-        --config config/training/hover_ctbr.yaml --episodes 100
+        --config config/training/hover_ctbr.yaml --episodes 100 --record runs/hover_episodes
 
 Exit status: 0 success, 2 bad input (a message names what is wrong), 3 an evaluation that
 missed ``--require-success``.
@@ -45,13 +45,27 @@ def _evaluate(args):
     if args.out and os.path.exists(args.out) and any(
             os.path.exists(f) and os.path.samefile(args.out, f) for f in (args.policy, args.config)):
         raise ValueError(f"evaluate: --out {args.out} is one of the inputs; the results go to a new file")
+    if args.record and os.path.lexists(args.record):  # before the flights, not after them
+        raise ValueError(f"--record {args.record}: already exists; episode logs go to a new folder")
+    if args.record_episodes < 1:
+        raise ValueError(f"--record-episodes: expected an integer >= 1, got {args.record_episodes}")
     p = policy.load(args.policy)
     config = load_config(args.config)
     check_layout(p, config)
     # The training file's evaluation conditions (racing: from the start, the full episode), as
     # the trainer's own evaluations use them.
     result = evaluate(p.evaluate, config, episodes=args.episodes, seed=args.seed,
-                      overrides=config["evaluation"]["overrides"])
+                      overrides=config["evaluation"]["overrides"],
+                      record=args.record_episodes if args.record else 0)
+    if args.record:
+        from .training import write_episode_logs
+
+        result, recorder = result
+        folder = write_episode_logs(args.record, recorder, result, {
+            "policy": os.path.abspath(args.policy), "config": os.path.abspath(args.config),
+            "seed": args.seed})
+        if not args.quiet:
+            print(f"episode logs: {folder} ({recorder.count} episodes; dronetwin view {args.record})")
     text = json.dumps(result, indent=2)
     if args.out:
         policy.atomic_write_bytes(args.out, (text + "\n").encode())
@@ -91,6 +105,10 @@ def main(argv=None):
     e.add_argument("--seed", type=int, default=1_000_000)
     e.add_argument("--out", "-o", help="write the per-episode results (JSON) here")
     e.add_argument("--require-success", type=float, help="exit 3 when the success fraction is below this")
+    e.add_argument("--record", metavar="DIR",
+                   help="write the first episodes' flights here (a new folder; dronetwin view DIR)")
+    e.add_argument("--record-episodes", type=int, default=10, metavar="K",
+                   help="how many episodes --record keeps (the first K, default 10)")
     e.add_argument("--quiet", "-q", action="store_true")
     args = parser.parse_args(argv)
     try:

@@ -133,16 +133,124 @@ def make_env(c, num_envs=None, overrides=None):
 
 # ---- evaluation ------------------------------------------------------------------------------
 
-def evaluate(act, config, episodes=100, seed=1_000_000, overrides=None, hold_s=2.0, hold_radius_m=0.05):
+class EpisodeRecorder:
+    """The flights of the first ``count`` episodes of an evaluation (env i's first episode): at
+    t = 0 and after every env step, the true state, the rotor speeds and, for the hover and
+    trajectory tasks, the target. The last row of an episode is the state it ended in (the
+    auto-reset has already replaced the vehicle; VectorEnv.final_states keeps it)."""
+
+    def __init__(self, env, count):
+        self.env = env
+        self.count = min(int(count), env.num_envs)
+        self.with_target = env.task != "racing"
+        self.rows = [[] for _ in range(self.count)]
+        self._append(_np.ones(self.count, dtype=bool), env.states(), env.rotor_speeds(), 0.0,
+                     targets=True)
+        self.steps = 0
+
+    def _append(self, which, states, omega, t, targets):
+        for i in _np.flatnonzero(which):
+            if self.with_target:
+                # The target is not defined after the episode's end: NaN (as the run log's
+                # "not applicable").
+                ref = self.env._env.target(int(i)) if targets else _np.full(3, _np.nan)
+            else:
+                ref = _np.zeros(0)
+            self.rows[i].append(_np.concatenate(([t], states[i], omega[i], ref)))
+
+    def after_step(self, done, running):
+        """Records the envs whose first episode ran in this step (``running``, before the step's
+        ends were counted); ``done`` marks the envs whose episode ended in it."""
+        self.steps += 1
+        t = self.steps * self.env.dt
+        k = self.count
+        going_on = running[:k] & ~done[:k]
+        ended = running[:k] & done[:k]
+        self._append(going_on, self.env.states(), self.env.rotor_speeds(), t, targets=True)
+        if ended.any():
+            self._append(ended, self.env.final_states(), self.env.final_rotor_speeds(), t,
+                         targets=False)
+
+    def columns(self):
+        n = self.env.rotor_positions_m.shape[0]
+        names = ["t", "x", "y", "z", "vx", "vy", "vz", "qw", "qx", "qy", "qz", "wx", "wy", "wz"]
+        names += [f"omega_{r}" for r in range(n)]
+        return names + (["ref_x", "ref_y", "ref_z"] if self.with_target else [])
+
+
+def write_episode_logs(folder, recorder, result, description):
+    """Writes the recorded episodes into the new folder ``folder``: ``episodes.json`` (the index:
+    each episode's outcome, the airframe's rotor layout and the scene) and one
+    ``episode_NNN/log.csv`` per episode (the state columns of the run log, docs/log-format.md).
+    The folder is built under a temporary name beside it and renamed into place: it appears
+    complete or not at all, and an existing path is never replaced (ValueError)."""
+    import json
+    import tempfile
+
+    folder = _os.path.abspath(_os.fspath(folder))
+    if _os.path.lexists(folder):
+        raise ValueError(f"--record {folder}: already exists; episode logs go to a new folder")
+    parent = _os.path.dirname(folder)
+    if not _os.path.isdir(parent):
+        raise ValueError(f"--record {folder}: folder {parent} does not exist")
+    from .view import scene_of_track
+
+    env = recorder.env
+    columns = recorder.columns()
+    index = {
+        "format": "dronetwin.episodes",
+        "format_version": 1,
+        **description,
+        "task": env.task,
+        "control_dt_s": env.dt,
+        "columns": columns,
+        "rotors": _np.asarray(env.rotor_positions_m).tolist(),
+        "scene": scene_of_track(env.track),
+        "episodes": [],
+    }
+    tmp = tempfile.mkdtemp(prefix="." + _os.path.basename(folder) + ".", suffix=".partial", dir=parent)
+    try:
+        for i, rows in enumerate(recorder.rows):
+            name = f"episode_{i:03d}"
+            entry = {"name": name, "env": i, "cause": result["cause"][i]}
+            for key in ("return", "length", "gates", "laps", "best_lap_s"):
+                value = result[key][i]
+                entry[key] = None if value is None or not _np.isfinite(value) else (
+                    int(value) if key in ("length", "gates", "laps") else float(value))
+            index["episodes"].append(entry)
+            _os.mkdir(_os.path.join(tmp, name))
+            with open(_os.path.join(tmp, name, "log.csv"), "w", encoding="utf-8", newline="\n") as f:
+                f.write(",".join(columns) + "\n")
+                for row in rows:
+                    f.write(",".join(format(float(v), ".17g") for v in row) + "\n")
+        with open(_os.path.join(tmp, "episodes.json"), "w", encoding="utf-8") as f:
+            json.dump(index, f, indent=1)
+            f.write("\n")
+        umask = _os.umask(0)
+        _os.umask(umask)
+        _os.chmod(tmp, 0o777 & ~umask)  # mkdtemp's 0700 would hide the logs from other users
+        _os.rename(tmp, folder)  # onto an empty folder made meanwhile at most: nothing is lost
+    except BaseException:
+        import shutil
+
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return folder
+
+
+def evaluate(act, config, episodes=100, seed=1_000_000, overrides=None, hold_s=2.0, hold_radius_m=0.05,
+             record=0):
     """Flies ``act`` (obs -> action, deterministic) for ``episodes`` episodes, one per env, with
     the evaluation seed (env i draws from stream (seed, i)). Returns per-episode arrays and the
     task's success fraction: hover, the distance to the target stays below ``hold_radius_m`` for
     the last ``hold_s`` of an episode that reached its time limit; racing, the laps were all
-    flown (the episode ended "finished")."""
+    flown (the episode ended "finished"). With ``record`` > 0 the first ``record`` episodes'
+    flights are kept (an EpisodeRecorder, returned as the second value: ``write_episode_logs``)."""
     c = config
     env = make_env(c, num_envs=episodes, overrides=overrides)
     obs, _ = env.reset(seed=int(seed))
     n = episodes
+    recorder = EpisodeRecorder(env, record) if record else None
     first = _np.zeros(n, dtype=bool)  # env i's first episode is over
     result = {k: _np.full(n, _np.nan) for k in ("return", "length", "gates", "laps", "best_lap_s")}
     cause = _np.full(n, -1)
@@ -159,6 +267,8 @@ def evaluate(act, config, episodes=100, seed=1_000_000, overrides=None, hold_s=2
             seen = _np.where(done[:, None], seen, _np.asarray(obs))
             ring[steps % hold_steps] = _np.linalg.norm(seen[:, target], axis=1)
         steps += 1
+        if recorder is not None:
+            recorder.after_step(done, ~first)
         newly = done & ~first
         if newly.any():
             for key in ("return", "length", "gates", "laps", "best_lap_s"):
@@ -188,6 +298,6 @@ def evaluate(act, config, episodes=100, seed=1_000_000, overrides=None, hold_s=2
         out["race_time_s_median"] = float(_np.median(race)) if race.size else None
     else:
         out["success_fraction"] = float(_np.mean([k == "time_limit" for k in names]))
-    return out
+    return (out, recorder) if recorder is not None else out
 
 

@@ -5,8 +5,9 @@ timeline, as one self-contained page (docs/viewer.md).
     dronetwin view out/se3_circle --out circle.html  # writes the page instead
     python3 -m dronetwin.view out/crossing --port 9000
 
-A run folder of `dronetwin run`, or a fleet run (fleet_summary.json: every vehicle in its own
-colour). The page holds three.js, uPlot (bundled from npm when dronetwin was built: no CDN, no
+A run folder of `dronetwin run`, a fleet run (fleet_summary.json: every vehicle in its own
+colour) or the RL episodes of `dronetwin evaluate --record` (episodes.json: every episode a
+vehicle, all starting together). The page holds three.js, uPlot (bundled from npm when dronetwin was built: no CDN, no
 network at view time) and the run's data; it opens from a file as well as from the server.
 
 Long runs are sampled to at most --max-frames frames (default 5000), evenly in time, always
@@ -39,7 +40,7 @@ def _sample(n, max_frames):
     return np.unique(np.round(np.linspace(0, n - 1, max_frames)).astype(int))
 
 
-def _vehicle(name, folder, max_frames):
+def _vehicle(name, folder, max_frames, hubs=None):
     from . import load_model, read_log
 
     log_path = os.path.join(folder, "log.csv")
@@ -53,7 +54,9 @@ def _vehicle(name, folder, max_frames):
     num_rotors = sum(1 for c in log if c.startswith("omega_") and c[6:].isdigit())
     model_path = meta.model_path if meta is not None else ""
     model = load_model(model_path) if model_path and os.path.isfile(model_path) else None
-    if model is not None:
+    if hubs is not None:  # RL episodes: the layout is in their index
+        hubs = [list(map(float, h)) for h in hubs]
+    elif model is not None:
         hubs = [list(map(float, r.position_m)) for r in model.spec.rotors]
     else:  # the model file moved: draw a generic X layout of the right rotor count
         angles = np.pi / 4 + 2 * np.pi * np.arange(num_rotors) / num_rotors
@@ -88,7 +91,11 @@ def _scene(path):
 
     if not os.path.isfile(path):
         raise ViewError(f"scene {path}: missing (the run's summary.json names it)")
-    track = load_track(path)
+    return scene_of_track(load_track(path))
+
+
+def scene_of_track(track):
+    """The page's scene (gates and obstacles) of a Track."""
     gates = [{"name": g["name"], "corners": [list(map(float, c)) for c in g["bar_corners"]],
               "bar_m": float(g["frame_width_m"])} for g in track.gates]
     obstacles = [{"name": o["name"], "type": o["type"],
@@ -103,6 +110,9 @@ def run_data(run_dir, max_frames=5000):
         raise ViewError(f"{run_dir}: not a folder (expected a run folder with log.csv)")
     if not isinstance(max_frames, int) or max_frames < 2:
         raise ViewError(f"--max-frames: expected an integer >= 2, got {max_frames!r}")
+    title = os.path.basename(os.path.normpath(run_dir))
+    if os.path.isfile(os.path.join(run_dir, "episodes.json")):
+        return _episodes_data(run_dir, title, max_frames)
     vehicles, scene_path = [], None
     from . import run_vehicle_folders
 
@@ -110,8 +120,37 @@ def run_data(run_dir, max_frames=5000):
         vehicle, scene = _vehicle(name, folder, max_frames)
         vehicles.append(vehicle)
         scene_path = scene_path or scene
-    title = os.path.basename(os.path.normpath(run_dir))
     return {"title": title, "vehicles": vehicles, "scene": _scene(scene_path)}
+
+
+def _episodes_data(run_dir, title, max_frames):
+    """RL episodes recorded by `dronetwin evaluate --record` (training.write_episode_logs): one
+    vehicle per episode, all starting at t = 0, named with how the episode ended."""
+    path = os.path.join(run_dir, "episodes.json")
+    try:
+        with open(path, encoding="utf-8") as f:
+            index = json.load(f)
+    except json.JSONDecodeError as e:
+        raise ViewError(f"{path}: not JSON ({e})") from None
+    if not isinstance(index, dict) or index.get("format") != "dronetwin.episodes":
+        raise ViewError(f"{path}: format: expected 'dronetwin.episodes', got "
+                        f"{index.get('format') if isinstance(index, dict) else index!r}")
+    if index.get("format_version") != 1:
+        raise ViewError(f"{path}: format_version: expected 1, got {index.get('format_version')!r}")
+    for key in ("episodes", "rotors", "scene"):
+        if key not in index:
+            raise ViewError(f"{path}: no field {key!r}")
+    if not index["episodes"]:
+        raise ViewError(f"{path}: episodes: empty (nothing was recorded)")
+    vehicles = []
+    for k, e in enumerate(index["episodes"]):
+        if not isinstance(e, dict) or not isinstance(e.get("name"), str) or "/" in e["name"]:
+            raise ViewError(f"{path}: episodes[{k}]: expected {{name: folder, ...}}, got {e!r}")
+        vehicle, _ = _vehicle(e["name"], os.path.join(run_dir, e["name"]), max_frames, index["rotors"])
+        t_end = vehicle["t"][-1]
+        vehicle["name"] = f"{e['name']} ({e.get('cause', '?')}, {t_end:.2f} s)"
+        vehicles.append(vehicle)
+    return {"title": f"{title}: {len(vehicles)} episodes", "vehicles": vehicles, "scene": index["scene"]}
 
 
 def page(data):

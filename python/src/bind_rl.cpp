@@ -8,6 +8,8 @@
 
 #include <pybind11/pybind11.h>
 
+#include <algorithm>
+#include <memory>
 #include <string>
 
 #include "bindings.hpp"
@@ -38,6 +40,14 @@ py::array bool_view(const std::uint8_t* data, py::ssize_t n, py::handle owner) {
   py::array a(py::dtype("bool"), {n}, {py::ssize_t{1}}, data, owner);
   py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
   return a;
+}
+
+/// A (rows, columns) numpy copy of row-major doubles (buffers the next step rewrites).
+py::array_t<double> copy_rows(const double* data, int rows, int columns) {
+  py::array_t<double> out({static_cast<py::ssize_t>(rows), static_cast<py::ssize_t>(columns)});
+  std::copy(data, data + static_cast<std::size_t>(rows) * static_cast<std::size_t>(columns),
+            out.mutable_data());
+  return out;
 }
 
 template <class T>
@@ -277,6 +287,45 @@ void bind_vec_env(py::module_& m, const char* name) {
             return out;
           },
           "(num_envs, 13) copy of the true vehicle states.")
+      .def_property_readonly(
+          "track", [](const E& e) { return std::make_shared<Track>(e.config().track); },
+          "The env's track (racing: its gates; every task: the obstacles of its scene), a copy.")
+      .def_property_readonly(
+          "rotor_positions_m",
+          [](const E& e) {
+            const int r = e.model().num_rotors();
+            py::array_t<double> out({static_cast<py::ssize_t>(r), py::ssize_t{3}});
+            auto o = out.mutable_unchecked<2>();
+            for (int i = 0; i < r; ++i)
+              for (int k = 0; k < 3; ++k) o(i, k) = e.model().rotor(i).position_m[k];
+            return out;
+          },
+          "(num_rotors, 3) hub positions of the env's airframe, body frame, m.")
+      .def(
+          "rotor_speeds",
+          [](const E& e) {
+            const auto n = static_cast<py::ssize_t>(e.num_envs());
+            const int r = e.model().num_rotors();
+            py::array_t<double> out({n, static_cast<py::ssize_t>(r)});
+            auto o = out.mutable_unchecked<2>();
+            for (int l = 0; l < e.num_envs(); ++l) {
+              const RotorVector omega = e.batch().rotor_speeds(l);
+              for (int k = 0; k < r; ++k) o(l, k) = omega[k];
+            }
+            return out;
+          },
+          "(num_envs, num_rotors) copy of the achieved rotor speeds, rad/s.")
+      .def(
+          "final_state",
+          [](const E& e) { return copy_rows(e.final_state_data(), e.num_envs(), kStateSize); },
+          "(num_envs, 13) copy of the state each ended episode reached (valid where done).")
+      .def(
+          "final_rotor_speeds",
+          [](const E& e) {
+            return copy_rows(e.final_rotor_speed_data(), e.num_envs(), e.model().num_rotors());
+          },
+          "(num_envs, num_rotors) copy of the rotor speeds each ended episode reached (valid "
+          "where done).")
       .def(
           "target", [](const E& e, int env) { return copy_of(e.target(env)); }, py::arg("env"),
           "The hover or trajectory target of env `env` now (racing: the next gate's centre).");

@@ -115,6 +115,8 @@ VecEnv<T>::VecEnv(std::shared_ptr<const VehicleModel> model, EnvConfig config, i
   finished_length_.assign(n, 0);
   finished_gates_.assign(n, 0);
   finished_laps_.assign(n, 0);
+  final_state_.assign(n * static_cast<std::size_t>(kStateSize), 0.0);
+  final_rotor_speed_.assign(n * static_cast<std::size_t>(model_->num_rotors()), 0.0);
   build_sensors();
   reset(config_.seed);
 }
@@ -616,6 +618,14 @@ void VecEnv<T>::step_impl(const A* actions) {
     finished_gates_[e] = gates_passed_[e];
     finished_laps_[e] = laps_[e];
     finished_best_lap_[e] = best_lap_s_[e];
+    for (int k = 0; k < kStateSize; ++k)
+      final_state_[e * kStateSize + static_cast<std::size_t>(k)] =
+          static_cast<double>(batch_->state_at(k, env));
+    const int num_rotors = model_->num_rotors();
+    const RotorVector omega = batch_->rotor_speeds(env);
+    for (int r = 0; r < num_rotors; ++r)
+      final_rotor_speed_[e * static_cast<std::size_t>(num_rotors) + static_cast<std::size_t>(r)] =
+          static_cast<double>(omega[r]);
     begin_episode(env, nullptr);
     write_observation(env);
   }

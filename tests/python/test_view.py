@@ -178,3 +178,27 @@ def test_bad_input_is_refused(run, page_path, tmp_path):
     assert out.returncode == 2 and "does not exist" in out.stderr
     with pytest.raises(view.ViewError, match="max-frames"):
         view.run_data(str(run), max_frames=1)
+
+
+def test_rl_episodes_play_together_on_the_longest_episodes_clock(tmp_path):
+    # Three racing episodes of the shipped CTBR policy, recorded by `dronetwin evaluate`: they
+    # finish at different times, and the timeline runs to the end of the longest.
+    out = tmp_path / "episodes"
+    subprocess.run([CLI, "evaluate", str(SOURCE / "models/policies/racing_ctbr.dtpolicy"), "--config",
+                    str(SOURCE / "config/training/racing_ctbr.yaml"), "--episodes", "3", "--record",
+                    str(out), "--quiet"], check=True, capture_output=True, timeout=300)
+    rows = [len(dronetwin.read_log(str(out / f"episode_{i:03d}" / "log.csv"))["t"]) for i in range(3)]
+    assert len(set(rows)) > 1
+    page = tmp_path / "episodes.html"
+    assert view.main([str(out), "--out", str(page)]) == 0
+    data = json.loads(re.search(r'id="run-data">(.*?)</script>', page.read_text(), re.S).group(1))
+    assert [len(v["t"]) for v in data["vehicles"]] == rows
+    track = dronetwin.load_track(str(SOURCE / "config/tracks/circuit.yaml"))
+    assert [g["name"] for g in data["scene"]["gates"]] == track.gate_names
+    t_end = (max(rows) - 1) * 0.01
+    result = chromium(f"file://{page}?t={t_end:.2f}", tmp_path, "--dump-dom")
+    assert result.returncode == 0, result.stderr[-3000:]
+    status = status_of(result.stdout)
+    assert status["ready"] == "1" and status["errors"] == "0", result.stdout
+    assert status["frames"] == str(max(rows)) and status["frame"] == str(max(rows))
+    assert status["time"] == f"{t_end:.3f}"

@@ -153,6 +153,30 @@ TEST(VecEnvAutoReset, TimeLimitTruncatesAndRestartsInTheSameStep) {
   EXPECT_LT((final_p - start).norm(), 0.05);
 }
 
+// The auto-reset replaces the vehicle; the state and rotor speeds it reached are kept. An env
+// whose episode is longer flies the same start and actions, so it holds them after that step.
+TEST(VecEnvAutoReset, TheFinalStateIsWhatTheEndedEpisodeReached) {
+  auto ending = make_env("racing", 3, "{episode_time_s: 0.05}");
+  auto going_on = make_env("racing", 3, "{episode_time_s: 1}");
+  const std::vector<double> zero(9, 0.0);
+  for (int t = 0; t < 5; ++t) {
+    ending.step(zero.data());
+    going_on.step(zero.data());
+  }
+  const int num_rotors = ending.model().num_rotors();
+  for (int e = 0; e < 3; ++e) {
+    ASSERT_TRUE(ending.done_data()[e]);
+    ASSERT_FALSE(going_on.done_data()[e]);
+    const StateVector reached = going_on.batch().state(e);
+    for (int k = 0; k < kStateSize; ++k)
+      EXPECT_EQ(ending.final_state_data()[e * kStateSize + k], reached[k]) << "env " << e;
+    EXPECT_NE(ending.batch().state(e), reached);  // the env itself starts again
+    const RotorVector omega = going_on.batch().rotor_speeds(e);
+    for (int r = 0; r < num_rotors; ++r)
+      EXPECT_EQ(ending.final_rotor_speed_data()[e * num_rotors + r], omega[r]) << "env " << e;
+  }
+}
+
 TEST(VecEnvTermination, FlyingIntoTheGroundIsACrashWithItsPenalty) {
   auto env = make_env("hover", 2,
                       "{hover: {target_m: [0, 0, 0.6], start_offset_m: [0, 0, 0]}, "

@@ -139,6 +139,11 @@ class VecEnv {
   const std::int32_t* finished_laps_data() const { return finished_laps_.data(); }
   /// Fastest complete lap of the episode, s (NaN without one).
   const double* finished_best_lap_data() const { return finished_best_lap_.data(); }
+  /// (num_envs, 13): the true state the ended episode reached, [p, v, q, w] (its last frame,
+  /// which the auto-reset replaced; recorders and viewers need it).
+  const double* final_state_data() const { return final_state_.data(); }
+  /// (num_envs, num_rotors): the rotor speeds the ended episode reached, rad/s.
+  const double* final_rotor_speed_data() const { return final_rotor_speed_.data(); }
 
   // Running episode, per env.
   const std::int64_t* episode_length_data() const { return length_.data(); }
@@ -212,7 +217,7 @@ class VecEnv {
   std::vector<double> observation64_[2], final64_[2];
   std::vector<double> reward_, reward_terms_;
   std::vector<std::uint8_t> terminated_, truncated_, done_, end_cause_;
-  std::vector<double> finished_return_, finished_best_lap_;
+  std::vector<double> finished_return_, finished_best_lap_, final_state_, final_rotor_speed_;
   std::vector<std::int64_t> finished_length_;
   std::vector<std::int32_t> finished_gates_, finished_laps_;
   // Sensors (EnvConfig::sensors, depth_cameras): one suite per env, sampled once per env step at

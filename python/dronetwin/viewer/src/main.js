@@ -34,8 +34,10 @@ document.head.appendChild(style);
 
 const data = JSON.parse(document.getElementById("run-data").textContent);
 
-// ---- time base: the frames of the first vehicle; the others are looked up by time ---------
-const times = data.vehicles[0].t;
+// ---- time base: the frames of the vehicle that flies longest (RL episodes end at different
+// times); the others are looked up by time and stay at their last frame once they end ---------
+const base = data.vehicles.reduce((a, v) => (v.t[v.t.length - 1] > a.t[a.t.length - 1] ? v : a));
+const times = base.t;
 const frameCount = times.length;
 status.dataset.frames = String(frameCount);
 
@@ -200,7 +202,7 @@ const cursorPlugin = {
 };
 
 const plots = [];
-function addPlot(title, seriesNames, columns, units) {
+function addPlot(title, seriesNames, columns, units, t) {
   const element = document.createElement("div");
   document.getElementById("plots").appendChild(element);
   const colors = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#555"];
@@ -215,7 +217,7 @@ function addPlot(title, seriesNames, columns, units) {
       seriesNames.map((name, i) => ({ label: name, stroke: colors[i % colors.length] })),
     ),
   };
-  plots.push(new uPlot(opts, [times].concat(columns), element));
+  plots.push(new uPlot(opts, [t].concat(columns), element));
 }
 
 const first = data.vehicles[0];
@@ -226,15 +228,23 @@ if (first.ref) {
     ["x", "y", "z", "ref x", "ref y", "ref z"],
     [0, 1, 2].map((k) => column(first.p, k)).concat([0, 1, 2].map((k) => column(first.ref, k))),
     "m",
+    first.t,
   );
 } else {
-  addPlot(`${first.name}: position`, ["x", "y", "z"], [0, 1, 2].map((k) => column(first.p, k)), "m");
+  addPlot(
+    `${first.name}: position`,
+    ["x", "y", "z"],
+    [0, 1, 2].map((k) => column(first.p, k)),
+    "m",
+    first.t,
+  );
 }
 addPlot(
   `${first.name}: rotor speeds`,
   first.omega[0].map((_, i) => `ω${i}`),
   first.omega[0].map((_, i) => column(first.omega, i)),
   "rad/s",
+  first.t,
 );
 
 // ---- timeline ---------------------------------------------------------------------------
@@ -253,7 +263,7 @@ function show(t) {
     bodies[i].position.set(...v.p[k]);
     bodies[i].quaternion.set(x, y, z, w);
   });
-  const frame = frameAt(first, t);
+  const frame = frameAt(base, t);
   scrubber.value = String(frame);
   const text = `t = ${t.toFixed(3)} s · frame ${frame + 1} / ${frameCount}`;
   clock.textContent = text;
