@@ -1,6 +1,7 @@
-"""A run's log as a ROS 1 bag, for rosbag, rqt_bag, RViz (with a bag player) and Foxglove.
+"""A run's log as a ROS 1 bag (rosbag, rqt_bag, RViz with a bag player, Foxglove) or as MCAP.
 
     dronetwin export out/pid_pulse --bag out/pid_pulse.bag
+    dronetwin export out/pid_pulse --mcap out/pid_pulse.mcap
     python3 -m dronetwin.export out/pid_pulse --bag out/pid_pulse.bag
 
 Writes one message per log row and topic, stamped with the row's simulated time (header stamps
@@ -20,12 +21,19 @@ A fleet run (fleet_summary.json) puts each vehicle under /<vehicle>/ and its fra
 the end; an existing file is never replaced. Needs Debian's python3-rosbag and the message
 packages (python3-nav-msgs, python3-geometry-msgs, python3-std-msgs, python3-tf2-msgs), which
 .ci/install-deps installs; no ROS master or catkin workspace. Format notes: docs/ros.md.
+
+MCAP holds the same topics and messages (ros1 profile: ROS 1 serialisation, the definitions as
+ros1msg schemas); it is written by the MCAP project's TypeScript library @mcap/core, bundled with
+the viewer at build time and run with Node.js (export_mcap).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import shutil
+import struct
+import subprocess
 import sys
 import tempfile
 
@@ -160,9 +168,9 @@ def _vehicles(run_dir):
     return out
 
 
-def export_bag(run_dir, bag_path):
-    """Writes the run in `run_dir` (a `dronetwin run` folder or a fleet run) to a new bag at
-    `bag_path`; returns {topic: message count}."""
+def _checked_logs(run_dir, out_path, option, extension):
+    """The (namespace, child frame, log) of every vehicle of `run_dir`, after checking that the
+    run is readable and `out_path` is a new file ending in `extension` in an existing folder."""
     from . import read_log
 
     if not os.path.isdir(run_dir):
@@ -171,49 +179,147 @@ def export_bag(run_dir, bag_path):
     for _, _, log_path in vehicles:
         if not os.path.isfile(log_path):
             raise ExportError(f"{log_path}: missing (expected the log of `dronetwin run`)")
-    if os.path.lexists(bag_path):
-        raise ExportError(f"--bag {bag_path}: already exists; the export never replaces a file")
-    if not bag_path.endswith(".bag"):
-        raise ExportError(f"--bag {bag_path}: expected a file name ending in .bag")
-    folder = os.path.dirname(os.path.abspath(bag_path))
+    if os.path.lexists(out_path):
+        raise ExportError(f"{option} {out_path}: already exists; the export never replaces a file")
+    if not out_path.endswith(extension):
+        raise ExportError(f"{option} {out_path}: expected a file name ending in {extension}")
+    folder = os.path.dirname(os.path.abspath(out_path))
     if not os.path.isdir(folder):
-        raise ExportError(f"--bag {bag_path}: folder {folder} does not exist")
-    R = _ros()
-    logs = [(ns, child, read_log(path)) for ns, child, path in vehicles]
-    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(bag_path) + ".", suffix=".partial",
+        raise ExportError(f"{option} {out_path}: folder {folder} does not exist")
+    return [(ns, child, read_log(path)) for ns, child, path in vehicles]
+
+
+def _write_atomically(out_path, option, write):
+    """Calls write(temporary path) for a file beside `out_path`, then moves it into place unless
+    `out_path` appeared meanwhile (then it is kept and ours dropped)."""
+    folder = os.path.dirname(os.path.abspath(out_path))
+    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(out_path) + ".", suffix=".partial",
                                dir=folder)
     os.close(fd)
-    counts = {}
     try:
+        result = write(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would hide the file from other users
+        if os.path.lexists(out_path):
+            raise ExportError(f"{option} {out_path}: appeared while exporting; not replaced")
+        os.replace(tmp, out_path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return result
+
+
+def export_bag(run_dir, bag_path):
+    """Writes the run in `run_dir` (a `dronetwin run` folder or a fleet run) to a new bag at
+    `bag_path`; returns {topic: message count}."""
+    logs = _checked_logs(run_dir, bag_path, "--bag", ".bag")
+    R = _ros()
+
+    def write(tmp):
+        counts = {}
         with R["rosbag"].Bag(tmp, "w") as bag:
             for ns, child, log in logs:
                 for topic, c in _write_vehicle(R, bag, log, ns, child).items():
                     counts[topic] = counts.get(topic, 0) + c
-        if os.path.lexists(bag_path):  # appeared while writing: keep it, drop ours
-            raise ExportError(f"--bag {bag_path}: appeared while exporting; not replaced")
-        os.replace(tmp, bag_path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return counts
+        return counts
+
+    return _write_atomically(bag_path, "--bag", write)
+
+
+MCAP_WRITER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "viewer", "mcap_writer.cjs")
+
+
+class _McapRecords:
+    """Takes the messages of _write_vehicle (bag.write's signature) and serialises them, in ROS 1
+    wire format with their message definitions, into the input stream of mcap_writer.cjs."""
+
+    def __init__(self):
+        import io
+
+        self.out = io.BytesIO()
+        self.out.write(b"DTMCAPIN")
+        self.schemas, self.channels = {}, {}
+
+    def _text(self, value):
+        data = value.encode("utf-8") if isinstance(value, str) else value
+        self.out.write(struct.pack("<I", len(data)))
+        self.out.write(data)
+
+    def write(self, topic, msg, stamp):
+        import io
+
+        schema = self.schemas.get(msg._type)
+        if schema is None:
+            schema = self.schemas[msg._type] = len(self.schemas) + 1
+            self.out.write(struct.pack("<BH", 1, schema))
+            self._text(msg._type)
+            self._text(msg._full_text)
+        channel = self.channels.get(topic)
+        if channel is None:
+            channel = self.channels[topic] = len(self.channels) + 1
+            self.out.write(struct.pack("<BHH", 2, channel, schema))
+            self._text(topic)
+        data = io.BytesIO()
+        msg.serialize(data)
+        self.out.write(struct.pack("<BHQ", 3, channel, stamp.to_nsec()))
+        self._text(data.getvalue())
+
+
+def export_mcap(run_dir, mcap_path):
+    """Writes the run in `run_dir` to a new MCAP file at `mcap_path` (ros1 profile: the bag's
+    topics and messages, for Foxglove and the mcap tools); returns {topic: message count}. The
+    file is written by @mcap/core (npm, bundled at build time) under Node.js."""
+    logs = _checked_logs(run_dir, mcap_path, "--mcap", ".mcap")
+    node = shutil.which("node") or shutil.which("nodejs")
+    if node is None:
+        raise ExportError("MCAP export needs Node.js (`node`; Debian's nodejs, installed with npm "
+                          "by `bash .ci/install-deps`)")
+    if not os.path.isfile(MCAP_WRITER):
+        raise ExportError(f"{MCAP_WRITER}: missing: the MCAP writer is bundled from npm when "
+                          "dronetwin is built (needs npm; `bash .ci/install-deps` installs it)")
+    R = _ros()
+    records = _McapRecords()
+    counts = {}
+    for ns, child, log in logs:
+        for topic, c in _write_vehicle(R, records, log, ns, child).items():
+            counts[topic] = counts.get(topic, 0) + c
+
+    def write(tmp):
+        os.unlink(tmp)  # the writer creates the file itself and refuses to replace one
+        done = subprocess.run([node, MCAP_WRITER, tmp], input=records.out.getvalue(),
+                              capture_output=True)
+        if done.returncode != 0:
+            raise ExportError(f"--mcap {mcap_path}: the MCAP writer failed: "
+                              f"{done.stderr.decode(errors='replace').strip()}")
+        return counts
+
+    return _write_atomically(mcap_path, "--mcap", write)
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(
-        prog="dronetwin export", description="Write a run's log as a ROS 1 bag (docs/ros.md).")
+        prog="dronetwin export", description="Write a run's log as a ROS 1 bag or MCAP (docs/ros.md).")
     parser.add_argument("run_dir", help="a folder written by `dronetwin run` (or a fleet run)")
-    parser.add_argument("--bag", required=True, help="the bag to write (must not exist)")
+    parser.add_argument("--bag", help="the ROS 1 bag to write (must not exist)")
+    parser.add_argument("--mcap", help="the MCAP file to write (must not exist)")
     parser.add_argument("--quiet", "-q", action="store_true", help="print nothing on success")
     args = parser.parse_args(argv)
-    try:
-        counts = export_bag(args.run_dir, args.bag)
-    except (ExportError, OSError) as e:
-        print(f"error: {e}", file=sys.stderr)
+    if not args.bag and not args.mcap:
+        print("error: nothing to write: give --bag FILE.bag, --mcap FILE.mcap or both", file=sys.stderr)
         return 2
-    if not args.quiet:
-        print(f"{args.bag}: {sum(counts.values())} messages on {len(counts)} topics")
-        for topic in sorted(counts):
-            print(f"  {topic}: {counts[topic]}")
+    for path, export in ((args.bag, export_bag), (args.mcap, export_mcap)):
+        if not path:
+            continue
+        try:
+            counts = export(args.run_dir, path)
+        except (ExportError, OSError) as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 2
+        if not args.quiet:
+            print(f"{path}: {sum(counts.values())} messages on {len(counts)} topics")
+            for topic in sorted(counts):
+                print(f"  {topic}: {counts[topic]}")
     return 0
 
 

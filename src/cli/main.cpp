@@ -388,7 +388,9 @@ int main(int argc, char** argv) {
       "Run a sweep file on Dask: sweep SWEEP.yaml --out DIR [--scheduler ADDR] [--workers N]");
   sweep_cmd->prefix_command()->set_help_flag();
   CLI::App* export_cmd = app.add_subcommand(
-      "export", "Write a run's log as a ROS 1 bag: export RUN_DIR --bag FILE.bag (docs/ros.md)");
+      "export",
+      "Write a run's log as a ROS 1 bag or MCAP: export RUN_DIR --bag FILE.bag --mcap FILE.mcap "
+      "(docs/ros.md)");
   export_cmd->prefix_command()->set_help_flag();
   CLI::App* view_cmd = app.add_subcommand(
       "view",

@@ -2,10 +2,12 @@
 per topic at the row's simulated time, read back with python3-rosbag and checked against the log
 (pose and rotor speeds exactly, the body-frame twist rotated back to the world by an independent
 quaternion product); `rosbag info` reads the file; a fleet run is namespaced per vehicle; an
-existing bag is never replaced."""
+existing bag is never replaced. The MCAP export, read by a reader of our own, holds the bag's
+messages byte for byte with their definitions."""
 
 import os
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -128,3 +130,105 @@ def test_an_existing_bag_is_never_replaced_and_bad_input_is_named(cli, se3_run, 
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and "ending in .bag" in r.stderr
     assert sorted(os.listdir(tmp_path)) == ["kept.bag"]  # no temporaries left behind
+
+
+# ---- MCAP ------------------------------------------------------------------------------------
+# A reader of our own for the MCAP records the export uses (mcap.dev/spec: magic, then records
+# of opcode u8, length u64, content; little-endian; strings and byte arrays prefixed by a u32
+# length), independent of the @mcap/core library that wrote the file.
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+def mcap_records(data):
+    """[(opcode, content)] of an MCAP file, the records inside chunks in place of the chunks
+    (whose CRC is checked)."""
+    import struct
+    import zlib
+
+    assert data[:8] == MCAP_MAGIC and data[-8:] == MCAP_MAGIC
+    out, at = [], 8
+    while at < len(data) - 8:
+        op, length = struct.unpack_from("<BQ", data, at)
+        content = data[at + 9: at + 9 + length]
+        at += 9 + length
+        if op == 0x06:  # chunk: start, end, uncompressed size and CRC, compression, records
+            _, _, size, crc = struct.unpack_from("<QQQI", content, 0)
+            (n,) = struct.unpack_from("<I", content, 28)
+            compression = content[32: 32 + n].decode()
+            (m,) = struct.unpack_from("<Q", content, 32 + n)
+            records = content[40 + n: 40 + n + m]
+            assert compression == "" and len(records) == size and zlib.crc32(records) == crc
+            out += mcap_records(MCAP_MAGIC + records + MCAP_MAGIC)
+        else:
+            out.append((op, content))
+    return out
+
+
+def mcap_messages(path):
+    """{topic: [(log time ns, data)]}, the schemas {name: (encoding, text)} and the header."""
+    import struct
+
+    def text(content, at):
+        (n,) = struct.unpack_from("<I", content, at)
+        return content[at + 4: at + 4 + n], at + 4 + n
+
+    schemas, channels, topics, header = {}, {}, {}, None
+    for op, c in mcap_records(Path(path).read_bytes()):
+        if op == 0x01:
+            profile, at = text(c, 0)
+            header = (profile.decode(), text(c, at)[0].decode())
+        elif op == 0x03:
+            (sid,) = struct.unpack_from("<H", c, 0)
+            name, at = text(c, 2)
+            encoding, at = text(c, at)
+            schemas[sid] = (name.decode(), encoding.decode(), text(c, at)[0].decode())
+        elif op == 0x04:
+            cid, sid = struct.unpack_from("<HH", c, 0)
+            topic, at = text(c, 4)
+            encoding, _ = text(c, at)
+            channels[cid] = (topic.decode(), sid, encoding.decode())
+        elif op == 0x05:
+            cid, _, log_time, publish_time = struct.unpack_from("<HIQQ", c, 0)
+            assert log_time == publish_time
+            topics.setdefault(channels[cid][0], []).append((log_time, bytes(c[22:])))
+    named = {schemas[sid][0]: schemas[sid][1:] for _, sid, _ in channels.values()}
+    assert all(encoding == "ros1" for _, _, encoding in channels.values())
+    return topics, named, header
+
+
+def test_mcap_holds_the_bags_messages_byte_for_byte(cli, se3_run, tmp_path):
+    bag_path, mcap_path = tmp_path / "se3.bag", tmp_path / "se3.mcap"
+    r = subprocess.run([cli, "export", str(se3_run), "--bag", str(bag_path), "--mcap", str(mcap_path)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    topics, schemas, header = mcap_messages(mcap_path)
+    assert header[0] == "ros1"
+    bag_topics, definitions = {}, {}
+    with rosbag.Bag(str(bag_path)) as bag:
+        for topic, raw, t in bag.read_messages(raw=True):
+            bag_topics.setdefault(topic, []).append((t.to_nsec(), bytes(raw[1])))
+        for c in bag._get_connections():
+            definitions[c.datatype] = c.msg_def
+    assert set(topics) == set(bag_topics) and len(topics) == 6
+    for topic in topics:
+        assert topics[topic] == bag_topics[topic], topic
+    assert {name: ("ros1msg", text) for name, text in definitions.items()} == schemas
+    # The times are the log's, from t = 0.
+    log = dt.read_log(se3_run / "log.csv")
+    times = [t for t, _ in topics["/dronetwin/odometry"]]
+    assert times[0] == 0 and times == [round(t * 1e9) for t in log["t"]]
+
+
+def test_an_existing_mcap_is_never_replaced_and_bad_input_is_named(cli, se3_run, tmp_path):
+    kept = tmp_path / "kept.mcap"
+    kept.write_bytes(b"precious")
+    r = subprocess.run([cli, "export", str(se3_run), "--mcap", str(kept)], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 2 and "--mcap" in r.stderr and "already exists" in r.stderr
+    assert kept.read_bytes() == b"precious"
+    r = subprocess.run([cli, "export", str(se3_run), "--mcap", str(tmp_path / "x.bag")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "ending in .mcap" in r.stderr
+    r = subprocess.run([cli, "export", str(se3_run)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "nothing to write" in r.stderr
+    assert sorted(os.listdir(tmp_path)) == ["kept.mcap"]  # no temporaries left behind
