@@ -5,10 +5,15 @@
 #include <stdexcept>
 #include <thread>
 
+#include <geometry_msgs/PointStamped.h>
+#include <geometry_msgs/Vector3Stamped.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/callback_queue.h>
 #include <rosgraph_msgs/Clock.h>
+#include <sensor_msgs/FluidPressure.h>
 #include <sensor_msgs/Imu.h>
+#include <sensor_msgs/MagneticField.h>
+#include <sensor_msgs/Range.h>
 #include <std_msgs/Float64MultiArray.h>
 #include <tf2_msgs/TFMessage.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -146,6 +151,116 @@ RosBridge::RosBridge(const BridgeSettings& settings, ros::NodeHandle& nh)
   ctbr_cmd_ = nh.subscribe("cmd/ctbr", 10, &RosBridge::on_ctbr, this, no_delay);
   if (link_.accepts_position_commands())
     pose_cmd_ = nh.subscribe("cmd/pose", 10, &RosBridge::on_pose, this, no_delay);
+  advertise_sensors(nh, kQueue);
+}
+
+void RosBridge::advertise_sensors(ros::NodeHandle& nh, std::uint32_t queue) {
+  sensors_ = link_.sensors();
+  if (sensors_.empty()) return;
+  tf2_msgs::TFMessage mounts;  // body -> <body>/<sensor>: where each sensor sits and looks
+  for (const LinkSensor& s : sensors_) {
+    const std::string topic = "sensors/" + s.name;
+    std::vector<ros::Publisher> p;
+    if (s.type == "imu") {
+      p.push_back(nh.advertise<sensor_msgs::Imu>(topic, queue));
+    } else if (s.type == "magnetometer") {
+      p.push_back(nh.advertise<sensor_msgs::MagneticField>(topic, queue));
+    } else if (s.type == "barometer") {
+      p.push_back(nh.advertise<sensor_msgs::FluidPressure>(topic, queue));
+    } else if (s.type == "gps") {
+      p.push_back(nh.advertise<geometry_msgs::PointStamped>(topic + "/position", queue));
+      p.push_back(nh.advertise<geometry_msgs::Vector3Stamped>(topic + "/velocity", queue));
+    } else if (s.type == "motion_capture") {
+      p.push_back(nh.advertise<geometry_msgs::PoseStamped>(topic, queue));
+    } else if (s.type == "range_finder") {
+      p.push_back(nh.advertise<sensor_msgs::Range>(topic, queue));
+    } else if (s.type == "optical_flow") {
+      p.push_back(nh.advertise<geometry_msgs::Vector3Stamped>(topic, queue));
+    } else if (s.type == "rotor_speed") {
+      p.push_back(nh.advertise<sensor_msgs::JointState>(topic, queue));
+    } else {
+      throw std::invalid_argument("sensor " + s.name + ": type " + s.type +
+                                  " has no ROS message in this bridge");
+    }
+    sensor_topics_.push_back(std::move(p));
+    geometry_msgs::TransformStamped mount;
+    mount.header.stamp = now();
+    mount.header.frame_id = settings_.body_frame;
+    mount.child_frame_id = settings_.body_frame + "/" + s.name;
+    fill(mount.transform.translation, s.position_B_m);
+    fill(mount.transform.rotation, s.rotation_BS_wxyz);
+    mounts.transforms.push_back(mount);
+  }
+  tf_static_ = nh.advertise<tf2_msgs::TFMessage>("/tf_static", 1, /*latch=*/true);
+  tf_static_.publish(mounts);
+}
+
+void RosBridge::publish_sensor_reading(const LinkSensorReading& reading, const ros::Time& stamp) {
+  const LinkSensor& s = sensors_[static_cast<std::size_t>(reading.sensor)];
+  std::vector<ros::Publisher>& topics = sensor_topics_[static_cast<std::size_t>(reading.sensor)];
+  const std::vector<double>& v = reading.values;  // in the order of s.channels (docs/sensors.md)
+  std_msgs::Header header;
+  header.stamp = stamp;
+  header.frame_id = settings_.body_frame + "/" + s.name;
+  if (s.type == "imu") {  // fx fy fz (m/s^2) wx wy wz (rad/s), sensor frame
+    sensor_msgs::Imu m;
+    m.header = header;
+    m.orientation_covariance[0] = -1.0;  // the message's "no orientation estimate"
+    fill(m.linear_acceleration, {v[0], v[1], v[2]});
+    fill(m.angular_velocity, {v[3], v[4], v[5]});
+    topics[0].publish(m);
+  } else if (s.type == "magnetometer") {  // bx by bz in uT; the message holds tesla
+    sensor_msgs::MagneticField m;
+    m.header = header;
+    fill(m.magnetic_field, {v[0] * 1e-6, v[1] * 1e-6, v[2] * 1e-6});
+    topics[0].publish(m);
+  } else if (s.type == "barometer") {  // p in Pa
+    sensor_msgs::FluidPressure m;
+    m.header = header;
+    m.fluid_pressure = v[0];
+    topics[0].publish(m);
+  } else if (s.type == "gps") {  // x y z (m) vx vy vz (m/s), world frame
+    header.frame_id = settings_.world_frame;
+    geometry_msgs::PointStamped position;
+    position.header = header;
+    position.point.x = v[0];
+    position.point.y = v[1];
+    position.point.z = v[2];
+    topics[0].publish(position);
+    geometry_msgs::Vector3Stamped velocity;
+    velocity.header = header;
+    fill(velocity.vector, {v[3], v[4], v[5]});
+    topics[1].publish(velocity);
+  } else if (s.type == "motion_capture") {  // x y z (m) qw qx qy qz, world frame
+    geometry_msgs::PoseStamped m;
+    m.header = header;
+    m.header.frame_id = settings_.world_frame;
+    m.pose.position.x = v[0];
+    m.pose.position.y = v[1];
+    m.pose.position.z = v[2];
+    fill(m.pose.orientation, {v[3], v[4], v[5], v[6]});
+    topics[0].publish(m);
+  } else if (s.type == "range_finder") {  // d in m along sensor z; NaN: no return
+    sensor_msgs::Range m;
+    m.header = header;
+    m.radiation_type = sensor_msgs::Range::INFRARED;
+    m.field_of_view = 0.0F;  // a single ray
+    m.min_range = static_cast<float>(s.min_range_m);
+    m.max_range = static_cast<float>(s.max_range_m);
+    m.range = static_cast<float>(v[0]);
+    topics[0].publish(m);
+  } else if (s.type == "optical_flow") {  // x y in rad/s, sensor frame; NaN: no reading
+    geometry_msgs::Vector3Stamped m;
+    m.header = header;
+    fill(m.vector, {v[0], v[1], 0.0});
+    topics[0].publish(m);
+  } else if (s.type == "rotor_speed") {  // w0 .. w{N-1} in rad/s
+    sensor_msgs::JointState m;
+    m.header = header;
+    for (std::size_t i = 0; i < v.size(); ++i) m.name.push_back("rotor_" + std::to_string(i));
+    m.velocity = v;
+    topics[0].publish(m);
+  }
 }
 
 ros::Time RosBridge::now() const { return to_time(link_.stamp_ns() + offset_ns_); }
@@ -195,9 +310,13 @@ void RosBridge::on_pose(const geometry_msgs::PoseStamped::ConstPtr& msg) {
            "cmd/pose (pose)");
 }
 
-void RosBridge::publish_state() {
+void RosBridge::publish_state(bool sensors) {
   const LinkSnapshot s = link_.snapshot();
   const ros::Time stamp = to_time(s.stamp_ns + offset_ns_);
+  if (sensors) {
+    for (const LinkSensorReading& r : s.sensor_readings)
+      publish_sensor_reading(r, to_time(r.stamp_ns + offset_ns_));
+  }
   rosgraph_msgs::Clock clock;
   clock.clock = stamp;
   clock_.publish(clock);
@@ -271,7 +390,7 @@ BridgeExit RosBridge::wait_for_command() {
     // A controller that subscribed after the state went out (or lost it) gets it again.
     if (std::chrono::duration<double>(wall_now - last_sent).count() >
         settings_.republish_period_s) {
-      publish_state();
+      publish_state(false);  // the readings went out with the first
       last_sent = wall_now;
     }
   }
@@ -318,7 +437,7 @@ BridgeExit RosBridge::fly() {
   const auto wall_start = std::chrono::steady_clock::now();
   const std::uint64_t start_ns = link_.stamp_ns();
   while (true) {
-    publish_state();
+    publish_state(true);
     if (link_.finished()) return BridgeExit::kFinished;
     answered_ = false;
     if (settings_.lockstep) {
@@ -337,7 +456,7 @@ BridgeExit RosBridge::fly() {
     }
     const std::string failure = link_.advance();
     if (!failure.empty()) {
-      publish_state();
+      publish_state(true);
       ROS_ERROR("%s", failure.c_str());
       return BridgeExit::kVehicleFailed;
     }

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TwistStamped.h>
@@ -68,7 +69,11 @@ class RosBridge {
   /// The ROS time of the link's current state.
   ros::Time now() const;
   void accepted(const std::string& why_not, const char* topic);
-  void publish_state();
+  /// The state at the current time; with `sensors`, also the sensor readings delivered in the
+  /// last period (once: a republished state leaves them out).
+  void publish_state(bool sensors);
+  void advertise_sensors(ros::NodeHandle& nh, std::uint32_t queue);
+  void publish_sensor_reading(const LinkSensorReading& reading, const ros::Time& stamp);
   void publish_scene();
   BridgeExit wait_for_command();
   BridgeExit fly();
@@ -82,6 +87,11 @@ class RosBridge {
   ros::Publisher odometry_, odometry_measured_, imu_, rotor_speeds_, reference_, tf_, clock_,
       scene_;
   ros::Subscriber rotor_cmd_, ctbr_cmd_, pose_cmd_;
+  // The experiment's sensors: per sensor its publishers (a GPS has two: position, velocity),
+  // and /tf_static with their mountings.
+  std::vector<LinkSensor> sensors_;
+  std::vector<std::vector<ros::Publisher>> sensor_topics_;
+  ros::Publisher tf_static_;
 };
 
 }  // namespace dronetwin::ros_bridge

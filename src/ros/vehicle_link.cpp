@@ -1,6 +1,7 @@
 #include "vehicle_link.hpp"
 
 #include <cmath>
+#include <optional>
 #include <variant>
 
 #include <Eigen/Geometry>
@@ -11,6 +12,8 @@
 #include "dronetwin/control/body_rate.hpp"
 #include "dronetwin/control/controller_base.hpp"
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/sensors/sensor_suite.hpp"
+#include "dronetwin/sensors/sensor_truth.hpp"
 #include "dronetwin/sim/simulator.hpp"
 #include "dronetwin/world/collision.hpp"
 
@@ -56,6 +59,26 @@ struct VehicleLink::Impl {
   std::unique_ptr<ControllerBase> position;
   ReferencePoint setpoint{};
   std::string failure;
+  // The experiment's sensors, sampled at every physics step as `dronetwin run` samples them,
+  // and what they delivered in the current period.
+  std::optional<SensorSuite> sensors;
+  StateVector previous_state;
+  std::vector<LinkSensorReading> delivered;
+
+  void sense() {
+    if (!sensors) return;
+    sensors->update(sim->step_count(), make_sensor_truth(*sim, previous_state));
+    previous_state = sim->state();
+    for (int i = 0; i < sensors->size(); ++i) {
+      if (!sensors->fresh(i)) continue;
+      const SensorReading& reading = sensors->latest(i);
+      LinkSensorReading out;
+      out.sensor = i;
+      out.stamp_ns = static_cast<std::uint64_t>(std::llround(reading.stamp_s * 1e9));
+      out.values.assign(reading.values.begin(), reading.values.begin() + reading.size);
+      delivered.push_back(std::move(out));
+    }
+  }
 
   RotorVector actuation() {
     if (mode == Mode::kInitial || mode == Mode::kRotorSpeeds) return rotor_command_rad_s;
@@ -96,6 +119,15 @@ VehicleLink::VehicleLink(const LinkSettings& settings) : impl_(std::make_unique<
   }
   r.rotor_command_rad_s = initial_speeds;
   r.total_steps = e.num_steps();
+  if (!e.sensors.empty()) {
+    try {
+      r.sensors.emplace(e.sensors, e.sim.dt_s, r.model->num_rotors(), e.sim.seed);
+    } catch (const InvalidArgument& err) {
+      throw InvalidArgument(e.source + ": " + err.what());
+    }
+    r.previous_state = r.sim->state();
+    r.sense();  // the samples of step 0
+  }
   r.setpoint.position_m = e.initial_state.state().segment<3>(si::kPosition);
 
   // One period: the experiment's control rate, so that a controller node sees the states the
@@ -125,6 +157,28 @@ LinkAirframe VehicleLink::airframe() const {
   const Impl& r = *impl_;
   return {r.model->name(), r.model->mass_kg(), r.model->num_rotors(),
           r.experiment.gravity_magnitude(), r.control_rate_hz};
+}
+
+std::vector<LinkSensor> VehicleLink::sensors() const {
+  const Impl& r = *impl_;
+  std::vector<LinkSensor> out;
+  if (!r.sensors) return out;
+  for (const SensorSpec& spec : r.experiment.sensors) {
+    LinkSensor s;
+    s.name = spec.name;
+    s.type = std::string(spec.type_name());
+    for (const SensorChannel& c : sensor_channels(spec, r.model->num_rotors()))
+      s.channels.push_back(c.suffix);
+    s.position_B_m = array_of(spec.mounting.position_B_m);
+    const Vec4& q = spec.mounting.rotation_BS_wxyz;
+    s.rotation_BS_wxyz = {q[0], q[1], q[2], q[3]};
+    if (const auto* range = std::get_if<RangeFinderParameters>(&spec.parameters)) {
+      s.min_range_m = range->min_range_m;
+      s.max_range_m = range->max_range_m;
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
 }
 
 std::vector<LinkSceneItem> VehicleLink::scene() const {
@@ -184,6 +238,7 @@ LinkSnapshot VehicleLink::snapshot() const {
     s.reference_position_m = array_of(p.position_m);
     s.reference_yaw_rad = p.yaw_rad;
   }
+  s.sensor_readings = r.delivered;
   return s;
 }
 
@@ -237,6 +292,7 @@ std::string VehicleLink::advance() {
   if (!r.failure.empty()) return r.failure;
   Simulator& sim = *r.sim;
   const std::int64_t steps = std::min(r.steps_per_period, r.total_steps - sim.step_count());
+  r.delivered.clear();
   for (std::int64_t k = 0; k < steps; ++k) {
     try {
       sim.set_rotor_speed_reference(r.actuation());
@@ -249,6 +305,7 @@ std::string VehicleLink::advance() {
       r.failure = detail::concat("t = ", sim.time_s(), " s: ", sim.failure_message());
       return r.failure;
     }
+    r.sense();
   }
   return {};
 }

@@ -50,6 +50,23 @@ struct LinkBodyState {
   std::array<double, 3> rates_B_rad_s{};
 };
 
+/// A sensor of the experiment's `sensors:` list, as the bridge publishes it (docs/sensors.md).
+struct LinkSensor {
+  std::string name;
+  std::string type;                      ///< "imu", "magnetometer", ... (the YAML type names)
+  std::vector<std::string> channels;     ///< its values' suffixes, in reading order (log columns)
+  std::array<double, 3> position_B_m{};  ///< mounting: origin in the body frame
+  std::array<double, 4> rotation_BS_wxyz{1.0, 0.0, 0.0, 0.0};  ///< sensor frame to body frame
+  double min_range_m = 0.0, max_range_m = 0.0;                 ///< range finder: its limits
+};
+
+/// One reading a sensor delivered (after its latency), as the run log's `<name>_*` columns hold it.
+struct LinkSensorReading {
+  int sensor = 0;              ///< index in VehicleLink::sensors()
+  std::uint64_t stamp_ns = 0;  ///< simulated time the sample was taken (before the latency)
+  std::vector<double> values;  ///< in the order of LinkSensor::channels, the log's units
+};
+
 struct LinkSnapshot {
   std::uint64_t stamp_ns = 0;  ///< simulated time, exact: step count x physics dt
   LinkBodyState state;         ///< true state
@@ -60,6 +77,9 @@ struct LinkSnapshot {
   bool has_reference = false;  ///< the experiment's reference (controller inputs)
   std::array<double, 3> reference_position_m{};
   double reference_yaw_rad = 0.0;
+  /// The readings the experiment's sensors delivered in the last period (at t = 0: those of
+  /// step 0), in delivery order.
+  std::vector<LinkSensorReading> sensor_readings;
 };
 
 struct LinkSceneItem {
@@ -91,6 +111,8 @@ class VehicleLink {
 
   LinkAirframe airframe() const;
   std::vector<LinkSceneItem> scene() const;
+  /// The experiment's sensors (empty without `sensors:`).
+  std::vector<LinkSensor> sensors() const;
   LinkSnapshot snapshot() const;
   std::uint64_t stamp_ns() const;
   /// The experiment's duration has been flown.

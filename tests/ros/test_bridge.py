@@ -1,6 +1,7 @@
 """dronetwin_ros (src/ros) against a real roscore: the launch file flies a hover with the example
 CTBR controller node through topics in lockstep, twice bit for bit; a rotor-speed controller node
-reproduces `dronetwin run` of the same experiment exactly; bad inputs end with the documented
+reproduces `dronetwin run` of the same experiment exactly, its sensor readings on their topics
+included; bad inputs end with the documented
 exit codes and messages; the launch file's `bag:=` (Debian's `rosbag record`) holds the flight.
 The other checks read what record_topics.py (a recorder without a queue limit) received.
 
@@ -302,3 +303,100 @@ def test_bad_inputs_end_with_their_exit_codes(ros_env, tmp_path):
     assert wrong.returncode == 4
     assert ("cmd/rotor_speeds (velocity): command refused: 3 rotor speeds, expected 4"
             in wrong.stderr), wrong.stderr
+
+
+# The experiment's sensors on topics: one message type per sensor type (docs/ros.md).
+SENSOR_TOPICS = {"imu": "sensor_msgs/Imu", "baro": "sensor_msgs/FluidPressure",
+                 "mag": "sensor_msgs/MagneticField", "gps/position": "geometry_msgs/PointStamped",
+                 "gps/velocity": "geometry_msgs/Vector3Stamped", "mocap": "geometry_msgs/PoseStamped",
+                 "range": "sensor_msgs/Range", "flow": "geometry_msgs/Vector3Stamped",
+                 "rpm": "sensor_msgs/JointState"}
+
+
+def test_sensor_topics_carry_what_dronetwin_run_logs(ros_env, tmp_path):
+    # The open-loop hover with hover_sensors.yaml's eight sensors, 1 s: `dronetwin run` logs each
+    # sensor's latest delivered reading (<name>_t, <name>_<channel>); the bridge, held at the same
+    # rotor speeds, must publish every delivery once, with the same stamp and values.
+    spec = yaml.safe_load((SOURCE / "config/experiments/hover_open_loop.yaml").read_text())
+    spec["model"] = str(SOURCE / "models/qdrone2.yaml")
+    spec["duration_s"] = 1.0
+    spec["sensors"] = yaml.safe_load((SOURCE / "config/experiments/hover_sensors.yaml").read_text())["sensors"]
+    experiment = tmp_path / "hover_sensors_open_loop.yaml"
+    experiment.write_text(yaml.safe_dump(spec))
+    subprocess.run([CLI, "run", str(experiment), "--out", str(tmp_path / "run")], check=True,
+                   capture_output=True)
+    log = np.genfromtxt(tmp_path / "run/log.csv", delimiter=",", names=True)
+    hover_speeds = " ".join(repr(float(log[f"omega_{i}"][0])) for i in range(4))
+    env = dict(ros_env, ROS_NAMESPACE="sens")
+    subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=env, check=True)
+    bag = tmp_path / "sensors.bag"
+    topics = [f"/sens/sensors/{name}:{kind}" for name, kind in SENSOR_TOPICS.items()]
+    # The recorder subscribes to odometry_measured too: the bridge waits for it and the holder.
+    recorder = subprocess.Popen(["/usr/bin/python3", str(RECORD), str(bag), *topics,
+                                 "/tf_static:tf2_msgs/TFMessage",
+                                 "/sens/odometry_measured:nav_msgs/Odometry"], env=env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                start_new_session=True)
+    hold = subprocess.Popen(["/usr/bin/python3", str(HOLD), f"_speeds:={hover_speeds}"], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    try:
+        out = run_node(env, str(experiment), "_wait_for_subscribers:=2")
+        assert out.returncode == 0, out.stderr
+    finally:
+        stop(hold)
+        stop(recorder)
+    got = read_bag(bag)
+
+    def deliveries(name):
+        """{stamp ns: the row's values} at each delivery of sensor `name` in the log."""
+        columns = [c for c in log.dtype.names if c.startswith(name + "_") and c != name + "_t"]
+        out = {}
+        for row in log:
+            stamp = row[name + "_t"]
+            if not math.isnan(stamp):
+                out.setdefault(round(stamp * 1e9) + OFFSET_NS, [float(row[c]) for c in columns])
+        return out
+
+    def same(a, b):
+        return all((math.isnan(x) and math.isnan(y)) or x == y for x, y in zip(a, b, strict=True))
+
+    values = {
+        "imu": lambda m: [m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z,
+                          m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z],
+        "baro": lambda m: [m.fluid_pressure],
+        "mag": lambda m: [m.magnetic_field.x, m.magnetic_field.y, m.magnetic_field.z],
+        "gps/position": lambda m: [m.point.x, m.point.y, m.point.z],
+        "gps/velocity": lambda m: [m.vector.x, m.vector.y, m.vector.z],
+        "mocap": lambda m: [m.pose.position.x, m.pose.position.y, m.pose.position.z,
+                            m.pose.orientation.w, m.pose.orientation.x, m.pose.orientation.y,
+                            m.pose.orientation.z],
+        "range": lambda m: [m.range],
+        "flow": lambda m: [m.vector.x, m.vector.y],
+        "rpm": lambda m: list(m.velocity),
+    }
+    expected_of = {  # the log's values as the messages carry them
+        "mag": lambda v: [x * 1e-6 for x in v],  # uT -> T
+        "gps/position": lambda v: v[:3],
+        "gps/velocity": lambda v: v[3:],
+        "range": lambda v: [float(np.float32(v[0]))],
+    }
+    for topic in SENSOR_TOPICS:
+        name = topic.split("/")[0]
+        msgs = got[f"/sens/sensors/{topic}"]
+        want = deliveries(name)
+        stamps = [m.header.stamp.to_nsec() for m in msgs]
+        assert len(want) >= 10 and stamps == sorted(want), topic  # every delivery once, in order
+        for m in msgs:
+            expected = expected_of.get(topic, lambda v: v)(want[m.header.stamp.to_nsec()])
+            assert same(values[topic](m), expected), (topic, m.header.stamp.to_nsec())
+        frame = "world" if name in ("gps", "mocap") else f"base_link/{name}"
+        assert {m.header.frame_id for m in msgs} == {frame}, topic
+    assert len(got["/sens/sensors/imu"]) == 1001  # 1 kHz from t = 0 to 1 s
+    assert got["/sens/sensors/imu"][0].orientation_covariance[0] == -1.0  # no orientation
+    (mounts,) = got["/tf_static"]
+    imu = next(t for t in mounts.transforms if t.child_frame_id == "base_link/imu")
+    assert imu.header.frame_id == "base_link"
+    t = imu.transform.translation
+    assert (t.x, t.y, t.z) == (0.02, 0.0, 0.01)
+    assert len(mounts.transforms) == 8
