@@ -227,22 +227,17 @@ def namespaced(env, ns):
     return dict(env, ROS_NAMESPACE=ns)
 
 
-def test_rotor_speed_commands_reproduce_dronetwin_run(ros_env, tmp_path):
-    experiment = SOURCE / "config/experiments/hover_open_loop.yaml"
-    subprocess.run([CLI, "run", str(experiment), "--out", str(tmp_path / "run")], check=True,
-                   capture_output=True)
-    with open(tmp_path / "run/log.csv") as f:
-        rows = list(csv.DictReader(f))
-    hover_speeds = " ".join(rows[0][f"omega_{i}"] for i in range(4))
-    env = dict(ros_env, ROS_NAMESPACE="echo")
+def fly_holding_speeds(ros_env, ns, experiment, speeds, bag, topics):
+    """The bridge flies `experiment` in namespace `ns` on simulated time while a node holds the
+    rotor speeds `speeds` (text, one per rotor); returns what the recorder received on `topics`
+    (TOPIC:TYPE) and the bridge's measured odometry."""
+    env = dict(ros_env, ROS_NAMESPACE=ns)
     subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=env, check=True)
-    bag = tmp_path / "echo.bag"
-    recorder = subprocess.Popen(["/usr/bin/python3", str(RECORD), str(bag),
-                                 "/echo/odometry:nav_msgs/Odometry",
-                                 "/echo/odometry_measured:nav_msgs/Odometry"], env=env,
+    recorder = subprocess.Popen(["/usr/bin/python3", str(RECORD), str(bag), *topics,
+                                 f"/{ns}/odometry_measured:nav_msgs/Odometry"], env=env,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                                 start_new_session=True)
-    hold = subprocess.Popen(["/usr/bin/python3", str(HOLD), f"_speeds:={hover_speeds}"], env=env,
+    hold = subprocess.Popen(["/usr/bin/python3", str(HOLD), f"_speeds:={speeds}"], env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
     try:
@@ -252,7 +247,19 @@ def test_rotor_speed_commands_reproduce_dronetwin_run(ros_env, tmp_path):
     finally:
         stop(hold)
         stop(recorder)
-    odometry = first_per_stamp(read_bag(bag)["/echo/odometry"])
+    return read_bag(bag)
+
+
+def test_rotor_speed_commands_reproduce_dronetwin_run(ros_env, tmp_path):
+    experiment = SOURCE / "config/experiments/hover_open_loop.yaml"
+    subprocess.run([CLI, "run", str(experiment), "--out", str(tmp_path / "run")], check=True,
+                   capture_output=True)
+    with open(tmp_path / "run/log.csv") as f:
+        rows = list(csv.DictReader(f))
+    hover_speeds = " ".join(rows[0][f"omega_{i}"] for i in range(4))
+    got = fly_holding_speeds(ros_env, "echo", experiment, hover_speeds, tmp_path / "echo.bag",
+                             ["/echo/odometry:nav_msgs/Odometry"])
+    odometry = first_per_stamp(got["/echo/odometry"])
     by_time = {round(float(r["t"]), 9): r for r in rows}
     compared = 0
     for m in odometry:
@@ -327,26 +334,9 @@ def test_sensor_topics_carry_what_dronetwin_run_logs(ros_env, tmp_path):
                    capture_output=True)
     log = np.genfromtxt(tmp_path / "run/log.csv", delimiter=",", names=True)
     hover_speeds = " ".join(repr(float(log[f"omega_{i}"][0])) for i in range(4))
-    env = dict(ros_env, ROS_NAMESPACE="sens")
-    subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=env, check=True)
-    bag = tmp_path / "sensors.bag"
     topics = [f"/sens/sensors/{name}:{kind}" for name, kind in SENSOR_TOPICS.items()]
-    # The recorder subscribes to odometry_measured too: the bridge waits for it and the holder.
-    recorder = subprocess.Popen(["/usr/bin/python3", str(RECORD), str(bag), *topics,
-                                 "/tf_static:tf2_msgs/TFMessage",
-                                 "/sens/odometry_measured:nav_msgs/Odometry"], env=env,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                start_new_session=True)
-    hold = subprocess.Popen(["/usr/bin/python3", str(HOLD), f"_speeds:={hover_speeds}"], env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
-    try:
-        out = run_node(env, str(experiment), "_wait_for_subscribers:=2")
-        assert out.returncode == 0, out.stderr
-    finally:
-        stop(hold)
-        stop(recorder)
-    got = read_bag(bag)
+    got = fly_holding_speeds(ros_env, "sens", experiment, hover_speeds, tmp_path / "sensors.bag",
+                             [*topics, "/tf_static:tf2_msgs/TFMessage"])
 
     def deliveries(name):
         """{stamp ns: the row's values} at each delivery of sensor `name` in the log."""
