@@ -144,7 +144,8 @@ def _episodes_data(run_dir, title, max_frames):
         raise ViewError(f"{path}: episodes: empty (nothing was recorded)")
     vehicles = []
     for k, e in enumerate(index["episodes"]):
-        if not isinstance(e, dict) or not isinstance(e.get("name"), str) or "/" in e["name"]:
+        name = e.get("name") if isinstance(e, dict) else None
+        if not isinstance(name, str) or "/" in name or name in ("", ".", ".."):
             raise ViewError(f"{path}: episodes[{k}]: expected {{name: folder, ...}}, got {e!r}")
         vehicle, _ = _vehicle(e["name"], os.path.join(run_dir, e["name"]), max_frames, index["rotors"])
         t_end = vehicle["t"][-1]

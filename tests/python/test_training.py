@@ -89,7 +89,8 @@ def test_the_viewer_names_a_broken_episode_index(recorded, tmp_path):
     index = json.loads((folder / "episodes.json").read_text())
     for change, message in (({"format_version": 2}, "format_version: expected 1, got 2"),
                             ({"episodes": []}, "episodes: empty"),
-                            ({"episodes": [{"name": "../x"}]}, r"episodes\[0\]")):
+                            ({"episodes": [{"name": "../x"}]}, r"episodes\[0\]"),
+                            ({"episodes": [{"name": ".."}]}, r"episodes\[0\]")):
         (folder / "episodes.json").write_text(json.dumps({**index, **change}))
         with pytest.raises(view.ViewError, match=message):
             view.run_data(str(folder))
