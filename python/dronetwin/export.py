@@ -30,6 +30,7 @@ the viewer at build time and run with Node.js (export_mcap).
 from __future__ import annotations
 
 import argparse
+import io
 import os
 import shutil
 import struct
@@ -235,8 +236,6 @@ class _McapRecords:
     wire format with their message definitions, into the input stream of mcap_writer.cjs."""
 
     def __init__(self):
-        import io
-
         self.out = io.BytesIO()
         self.out.write(b"DTMCAPIN")
         self.schemas, self.channels = {}, {}
@@ -247,8 +246,6 @@ class _McapRecords:
         self.out.write(data)
 
     def write(self, topic, msg, stamp):
-        import io
-
         schema = self.schemas.get(msg._type)
         if schema is None:
             schema = self.schemas[msg._type] = len(self.schemas) + 1

@@ -45,8 +45,10 @@ def _evaluate(args):
     if args.out and os.path.exists(args.out) and any(
             os.path.exists(f) and os.path.samefile(args.out, f) for f in (args.policy, args.config)):
         raise ValueError(f"evaluate: --out {args.out} is one of the inputs; the results go to a new file")
-    if args.record and os.path.lexists(args.record):  # before the flights, not after them
-        raise ValueError(f"--record {args.record}: already exists; episode logs go to a new folder")
+    if args.record:  # before the flights, not after them
+        from .training import check_record_folder
+
+        check_record_folder(args.record)
     if args.record_episodes < 1:
         raise ValueError(f"--record-episodes: expected an integer >= 1, got {args.record_episodes}")
     p = policy.load(args.policy)
@@ -113,7 +115,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     try:
         return _train(args) if args.command == "train" else _evaluate(args)
-    except (ValueError, FileNotFoundError) as err:
+    except (ValueError, OSError) as err:  # OSError: a file or folder that cannot be read or made
         print(f"error: {err}", file=sys.stderr)
         return 2
 

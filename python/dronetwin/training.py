@@ -178,6 +178,18 @@ class EpisodeRecorder:
         return names + (["ref_x", "ref_y", "ref_z"] if self.with_target else [])
 
 
+def check_record_folder(folder):
+    """The absolute path of `folder` if episode logs can go there (a new folder in an existing
+    one), else ValueError naming it."""
+    folder = _os.path.abspath(_os.fspath(folder))
+    if _os.path.lexists(folder):
+        raise ValueError(f"--record {folder}: already exists; episode logs go to a new folder")
+    parent = _os.path.dirname(folder)
+    if not _os.path.isdir(parent):
+        raise ValueError(f"--record {folder}: folder {parent} does not exist")
+    return folder
+
+
 def write_episode_logs(folder, recorder, result, description):
     """Writes the recorded episodes into the new folder ``folder``: ``episodes.json`` (the index:
     each episode's outcome, the airframe's rotor layout and the scene) and one
@@ -187,12 +199,8 @@ def write_episode_logs(folder, recorder, result, description):
     import json
     import tempfile
 
-    folder = _os.path.abspath(_os.fspath(folder))
-    if _os.path.lexists(folder):
-        raise ValueError(f"--record {folder}: already exists; episode logs go to a new folder")
+    folder = check_record_folder(folder)
     parent = _os.path.dirname(folder)
-    if not _os.path.isdir(parent):
-        raise ValueError(f"--record {folder}: folder {parent} does not exist")
     from .view import scene_of_track
 
     env = recorder.env

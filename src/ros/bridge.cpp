@@ -198,7 +198,7 @@ void RosBridge::advertise_sensors(ros::NodeHandle& nh, std::uint32_t queue) {
 void RosBridge::publish_sensor_reading(const LinkSensorReading& reading, const ros::Time& stamp) {
   const LinkSensor& s = sensors_[static_cast<std::size_t>(reading.sensor)];
   std::vector<ros::Publisher>& topics = sensor_topics_[static_cast<std::size_t>(reading.sensor)];
-  const std::vector<double>& v = reading.values;  // in the order of s.channels (docs/sensors.md)
+  const auto& v = reading.values;  // the first reading.size, in the order of s.channels
   std_msgs::Header header;
   header.stamp = stamp;
   header.frame_id = settings_.body_frame + "/" + s.name;
@@ -257,8 +257,8 @@ void RosBridge::publish_sensor_reading(const LinkSensorReading& reading, const r
   } else if (s.type == "rotor_speed") {  // w0 .. w{N-1} in rad/s
     sensor_msgs::JointState m;
     m.header = header;
-    for (std::size_t i = 0; i < v.size(); ++i) m.name.push_back("rotor_" + std::to_string(i));
-    m.velocity = v;
+    for (int i = 0; i < reading.size; ++i) m.name.push_back("rotor_" + std::to_string(i));
+    m.velocity.assign(v.begin(), v.begin() + reading.size);
     topics[0].publish(m);
   }
 }

@@ -1,5 +1,6 @@
 #include "vehicle_link.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <variant>
@@ -18,6 +19,10 @@
 #include "dronetwin/world/collision.hpp"
 
 namespace dronetwin::ros_bridge {
+
+static_assert(kMaxLinkSensorValues >= kMaxSensorValues,
+              "LinkSensorReading must hold the largest sensor reading");
+
 namespace {
 
 namespace si = state_index;
@@ -75,8 +80,9 @@ struct VehicleLink::Impl {
       LinkSensorReading out;
       out.sensor = i;
       out.stamp_ns = static_cast<std::uint64_t>(std::llround(reading.stamp_s * 1e9));
-      out.values.assign(reading.values.begin(), reading.values.begin() + reading.size);
-      delivered.push_back(std::move(out));
+      out.size = reading.size;
+      std::copy(reading.values.begin(), reading.values.begin() + reading.size, out.values.begin());
+      delivered.push_back(out);  // within the capacity reserved for a period: no allocation
     }
   }
 
@@ -143,6 +149,12 @@ VehicleLink::VehicleLink(const LinkSettings& settings) : impl_(std::make_unique<
               std::abs(ratio - static_cast<double>(r.steps_per_period)) < 1e-9 * ratio,
           "control rate ", r.control_rate_hz, " Hz: expected a divisor of the physics rate ",
           1.0 / e.sim.dt_s, " Hz of ", e.source);
+
+  // A sensor delivers at most one reading per physics step (its rate is bounded by the physics
+  // rate and its latency is fixed).
+  if (r.sensors)
+    r.delivered.reserve(static_cast<std::size_t>(r.steps_per_period) *
+                        static_cast<std::size_t>(r.sensors->size()));
 
   r.rates = std::make_unique<BodyRateController>(r.model, BodyRateGains{});
   if (!settings.position_controller.empty()) {

@@ -60,11 +60,18 @@ struct LinkSensor {
   double min_range_m = 0.0, max_range_m = 0.0;                 ///< range finder: its limits
 };
 
+/// Most values in one reading (a rotor-speed sensor's: one per rotor, at most 8); vehicle_link.cpp
+/// checks it against the sensor models' own bound.
+inline constexpr int kMaxLinkSensorValues = 8;
+
 /// One reading a sensor delivered (after its latency), as the run log's `<name>_*` columns hold it.
+/// Fixed size, so that collecting the readings of a physics step allocates nothing.
 struct LinkSensorReading {
   int sensor = 0;              ///< index in VehicleLink::sensors()
   std::uint64_t stamp_ns = 0;  ///< simulated time the sample was taken (before the latency)
-  std::vector<double> values;  ///< in the order of LinkSensor::channels, the log's units
+  int size = 0;                ///< values in use: LinkSensor::channels.size()
+  /// The first `size`, in the order of LinkSensor::channels, the log's units.
+  std::array<double, kMaxLinkSensorValues> values{};
 };
 
 struct LinkSnapshot {

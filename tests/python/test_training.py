@@ -87,11 +87,18 @@ def test_the_viewer_names_a_broken_episode_index(recorded, tmp_path):
     folder = tmp_path / "episodes"
     training.write_episode_logs(folder, recorder, result, {})
     index = json.loads((folder / "episodes.json").read_text())
-    for change, message in (({"format_version": 2}, "format_version: expected 1, got 2"),
+    for change, message in (({"format": "dronetwin.run_log"}, "format: expected 'dronetwin.episodes'"),
+                            ({"format_version": 2}, "format_version: expected 1, got 2"),
+                            ({"rotors": None}, None),
                             ({"episodes": []}, "episodes: empty"),
                             ({"episodes": [{"name": "../x"}]}, r"episodes\[0\]"),
                             ({"episodes": [{"name": ".."}]}, r"episodes\[0\]")):
-        (folder / "episodes.json").write_text(json.dumps({**index, **change}))
+        broken = {**index, **change}
+        if message is None:  # a field left out
+            (key,) = change
+            del broken[key]
+            message = f"no field '{key}'"
+        (folder / "episodes.json").write_text(json.dumps(broken))
         with pytest.raises(view.ViewError, match=message):
             view.run_data(str(folder))
     (folder / "episodes.json").write_text("{")
@@ -120,3 +127,7 @@ def test_cli_records_episodes_and_refuses_an_existing_folder(cli, tmp_path):
     r = subprocess.run([cli, "evaluate", HOVER_POLICY, "--config", HOVER, "--record",
                         str(tmp_path / "r2"), "--record-episodes", "0"], capture_output=True, text=True)
     assert r.returncode == 2 and "--record-episodes: expected an integer >= 1, got 0" in r.stderr
+    nowhere = tmp_path / "no" / "rec"
+    r = subprocess.run([cli, "evaluate", HOVER_POLICY, "--config", HOVER, "--episodes", "1",
+                        "--record", str(nowhere)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2 and f"folder {tmp_path / 'no'} does not exist" in r.stderr

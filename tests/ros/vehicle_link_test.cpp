@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <stdexcept>
 
@@ -118,8 +119,9 @@ TEST(VehicleLink, SensorReadingsAreTheExperimentsSensorsDeliveredInThePeriod) {
     for (int i = 0; i < suite.size(); ++i) {
       if (!suite.fresh(i)) continue;
       const SensorReading& r = suite.latest(i);
-      expected.push_back({i, static_cast<std::uint64_t>(std::llround(r.stamp_s * 1e9)),
-                          std::vector<double>(r.values.begin(), r.values.begin() + r.size)});
+      LinkSensorReading e_r{i, static_cast<std::uint64_t>(std::llround(r.stamp_s * 1e9)), r.size};
+      std::copy(r.values.begin(), r.values.begin() + r.size, e_r.values.begin());
+      expected.push_back(e_r);
     }
   };
   std::vector<int> count(sensors.size(), 0);
@@ -131,9 +133,10 @@ TEST(VehicleLink, SensorReadingsAreTheExperimentsSensorsDeliveredInThePeriod) {
       EXPECT_EQ(got[k].sensor, expected[k].sensor);
       EXPECT_EQ(got[k].stamp_ns, expected[k].stamp_ns);
       // Bit for bit, NaN (no return, no reading yet) included.
-      ASSERT_EQ(got[k].values.size(), expected[k].values.size());
+      ASSERT_EQ(got[k].size, expected[k].size);
+      ASSERT_EQ(got[k].size, static_cast<int>(sensors[got[k].sensor].channels.size()));
       EXPECT_EQ(std::memcmp(got[k].values.data(), expected[k].values.data(),
-                            got[k].values.size() * sizeof(double)),
+                            static_cast<std::size_t>(got[k].size) * sizeof(double)),
                 0)
           << sensors[got[k].sensor].name << " at " << got[k].stamp_ns << " ns";
       ++count[got[k].sensor];

@@ -17,6 +17,7 @@
 #include "dronetwin/policy/mlp.hpp"
 #include "dronetwin/sim/simulator.hpp"
 #include "test_support.hpp"
+#include "vehicle_link.hpp"
 
 namespace {
 std::atomic<long> g_allocations{0};
@@ -229,6 +230,21 @@ TEST(NoAllocation, PolicyEvaluationDoesNotAllocate) {
     EXPECT_EQ(g_allocations.load(), before);
     EXPECT_TRUE(std::isfinite(action[0]));
   }
+}
+
+// The ROS bridge's simulator half (src/ros/vehicle_link.hpp) steps a period with every sensor
+// type of hover_sensors.yaml sampling and delivering readings: no allocation either (the
+// readings are fixed-size, collected into capacity reserved at construction).
+TEST(NoAllocation, VehicleLinkPeriodsWithSensorsDoNotAllocate) {
+  ros_bridge::VehicleLink link(
+      {test::source_path("config/experiments/hover_sensors.yaml"), "", 100.0});
+  const RotorVector hover = test::load_model("qdrone2")->hover_speeds_rad_s();
+  ASSERT_EQ(link.command_rotor_speeds({hover.data(), hover.data() + hover.size()}), "");
+  ASSERT_EQ(link.advance(), "");
+  const long before = g_allocations.load();
+  for (int period = 0; period < 50; ++period) ASSERT_TRUE(link.advance().empty());
+  EXPECT_EQ(g_allocations.load(), before);
+  EXPECT_FALSE(link.snapshot().sensor_readings.empty());  // they did deliver
 }
 
 }  // namespace
