@@ -199,7 +199,8 @@ def BatchCascadedPid(model, gains, options, control_period_s, num_vehicles, dtyp
     physics step (so ``control_period_s`` is the batch's ``dt_s``):
 
         pid = dt.BatchCascadedPid(model, gains, options, batch.dt_s, 4096)
-        pid.reference[:, 0:3] = targets              # (N, 8): p, v, yaw, yaw rate
+        pid.reference[:, 0:3] = targets              # (N, 17): p, v, yaw, yaw rate, feed-forward
+        pid.set_reference(lane, reference_point)     # or one lane, feed-forward columns included
         batch.step(1000, pid)
 
     In float64 a lane equals CascadedPid flown by ClosedLoop at the physics rate.

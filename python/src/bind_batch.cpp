@@ -491,7 +491,12 @@ void bind_pid(py::module_& m, const char* name, const char* dtype) {
             return soa_view<T>(c.reference_data(), c.size(), C::kReferenceSize, c.stride(), self,
                                true);
           },
-          "(N, 8) writable view: [x, y, z, vx, vy, vz, yaw, yaw_rate] per lane.")
+          "(N, 17) writable view per lane: [x, y, z, vx, vy, vz, yaw, yaw_rate], then the "
+          "feed-forward's acceleration [ax, ay, az], flat body rates [wx, wy, wz] and angular "
+          "accelerations [dwx, dwy, dwz] (set_reference fills them).")
+      .def("set_reference", &C::set_reference, py::arg("lane"), py::arg("reference"),
+           "One lane's reference (a ReferencePoint): its columns, the feed-forward ones computed "
+           "from its acceleration, jerk, snap and yaw motion as CascadedPid does.")
       .def_property_readonly(
           "integral",
           [](py::object self) {

@@ -471,7 +471,15 @@ void bind_control(py::module_& m) {
       .def_readwrite("yaw_error_wrap", &PidOptions::yaw_error_wrap)
       .def_readwrite("velocity_feedforward", &PidOptions::velocity_feedforward)
       .def_readwrite("yaw_frame_mapping", &PidOptions::yaw_frame_mapping)
-      .def_readwrite("yaw_loop", &PidOptions::yaw_loop);
+      .def_readwrite("yaw_loop", &PidOptions::yaw_loop)
+      .def_readwrite("acceleration_feed_forward", &PidOptions::acceleration_feed_forward,
+                     "Tilt and thrust feed-forward of the reference's acceleration.")
+      .def_readwrite("angular_feed_forward", &PidOptions::angular_feed_forward,
+                     "Body-rate, angular-acceleration and torque feed-forward of the reference's "
+                     "flat attitude (from its jerk and snap).")
+      .def_readwrite("drag_feed_forward", &PidOptions::drag_feed_forward,
+                     "Cancel the model's drag at the reference velocity through the acceleration "
+                     "feed-forward.");
 
   py::class_<CascadedPid, ControllerBase>(m, "CascadedPid", "Cascaded PID (thesis Eq. 3.15-3.20).")
       .def(py::init([](const std::shared_ptr<VehicleModel>& model, const PidGains& g,

@@ -28,9 +28,12 @@ void BatchCascadedPid<T>::set_reference(int lane, const ReferencePoint& r) {
   require(lane >= 0 && lane < num_vehicles_, "BatchCascadedPid::set_reference: lane ", lane,
           " is out of range (", num_vehicles_, " vehicles)");
   require(r.position_m.allFinite() && r.velocity_m_s.allFinite() && std::isfinite(r.yaw_rad) &&
-              std::isfinite(r.yaw_rate_rad_s),
+              std::isfinite(r.yaw_rate_rad_s) && r.acceleration_m_s2.allFinite() &&
+              r.jerk_m_s3.allFinite() && r.snap_m_s4.allFinite() &&
+              std::isfinite(r.yaw_acceleration_rad_s2),
           "BatchCascadedPid::set_reference: lane ", lane,
-          ": expected finite position, velocity, yaw and yaw rate");
+          ": expected finite position, velocity, acceleration, jerk, snap, yaw, yaw rate and yaw "
+          "acceleration");
   const auto n = static_cast<std::size_t>(stride_), l = static_cast<std::size_t>(lane);
   for (int k = 0; k < 3; ++k) {
     reference_[static_cast<std::size_t>(k) * n + l] = static_cast<T>(r.position_m[k]);
@@ -38,6 +41,13 @@ void BatchCascadedPid<T>::set_reference(int lane, const ReferencePoint& r) {
   }
   reference_[6 * n + l] = static_cast<T>(r.yaw_rad);
   reference_[7 * n + l] = static_cast<T>(r.yaw_rate_rad_s);
+  Vec3 acceleration, w_ref, dw_ref;
+  pid_feed_forward(r, law_, *model_, acceleration, w_ref, dw_ref);
+  for (int k = 0; k < 3; ++k) {
+    reference_[static_cast<std::size_t>(8 + k) * n + l] = static_cast<T>(acceleration[k]);
+    reference_[static_cast<std::size_t>(11 + k) * n + l] = static_cast<T>(w_ref[k]);
+    reference_[static_cast<std::size_t>(14 + k) * n + l] = static_cast<T>(dw_ref[k]);
+  }
 }
 
 template <class T>
@@ -72,6 +82,14 @@ void BatchCascadedPid<T>::references(int pack, const Mask& running, const StateV
   for (int k = 0; k < 4; ++k) in.quaternion[k] = x[kQuaternion + k];
   in.yaw_ref_rad = P(at(reference_, 6), stdx::vector_aligned);
   in.yaw_rate_ref_rad_s = P(at(reference_, 7), stdx::vector_aligned);
+  for (int k = 0; k < 3; ++k) {
+    in.acceleration_ref_m_s2[k] =
+        law_.acceleration_feed_forward ? P(at(reference_, 8 + k), stdx::vector_aligned) : P(T(0));
+    in.angular_velocity_ref_B[k] =
+        law_.angular_feed_forward ? P(at(reference_, 11 + k), stdx::vector_aligned) : P(T(0));
+    in.angular_acceleration_ref_B[k] =
+        law_.angular_feed_forward ? P(at(reference_, 14 + k), stdx::vector_aligned) : P(T(0));
+  }
   Vector4<P> integral;
   for (int k = 0; k < 4; ++k) integral[k] = P(at(integral_, k), stdx::vector_aligned);
   const Vector4<P> before = integral;

@@ -80,9 +80,10 @@ constexpr std::array<std::string_view, 2> kAllocations = {"exact", "thesis"};
 constexpr std::array<std::string_view, 6> kPidGainKeys = {"outer_p", "outer_d",  "outer_i",
                                                           "inner_p", "inner_d1", "inner_d2"};
 constexpr std::array<std::string_view, 2> kPidLimitKeys = {"max_tilt_rad", "integral_limit"};
-constexpr std::array<std::string_view, 5> kPidOptionKeys = {
-    "conditional_integration", "yaw_error_wrap", "velocity_feedforward", "yaw_frame_mapping",
-    "yaw_loop"};
+constexpr std::array<std::string_view, 8> kPidOptionKeys = {
+    "conditional_integration", "yaw_error_wrap",   "velocity_feedforward",
+    "yaw_frame_mapping",       "yaw_loop",         "acceleration_feed_forward",
+    "angular_feed_forward",    "drag_feed_forward"};
 constexpr std::array<std::string_view, 2> kYawLoops = {"thesis", "rate"};
 
 constexpr std::array<std::string_view, 4> kSe3GainKeys = {"position_p", "position_d", "attitude_p",
@@ -144,6 +145,9 @@ void read_pid(const Reader& rd, const Map& top, PidSettings& c) {
     flag("yaw_error_wrap", o.yaw_error_wrap);
     flag("velocity_feedforward", o.velocity_feedforward);
     flag("yaw_frame_mapping", o.yaw_frame_mapping);
+    flag("acceleration_feed_forward", o.acceleration_feed_forward);
+    flag("angular_feed_forward", o.angular_feed_forward);
+    flag("drag_feed_forward", o.drag_feed_forward);
     if (p.has("yaw_loop"))
       o.yaw_loop = choice(rd, p.get("yaw_loop"), p.path("yaw_loop"), kYawLoops) == 0
                        ? PidYawLoop::kThesis

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dronetwin/control/feed_forward.hpp"
 #include "dronetwin/core/error.hpp"
 
 namespace dronetwin {
@@ -64,10 +65,11 @@ CascadedPid::CascadedPid(std::shared_ptr<const VehicleModel> model, const PidGai
             "cascaded_pid: integral_limit[", i, "]: expected > 0 (infinity: no limit), got ",
             options_.integral_limit[i]);
   set_control_period(control_period_s);
-  law_ = pid_law_constants(gains_, options_);
+  law_ = pid_law_constants(gains_, options_, ControllerBase::model().inertia_kgm2());
 }
 
-PidLawConstants pid_law_constants(const PidGains& gains, const PidOptions& options) {
+PidLawConstants pid_law_constants(const PidGains& gains, const PidOptions& options,
+                                  const Mat3& inertia_kgm2) {
   PidLawConstants k;
   k.outer_p = gains.outer_p;
   k.outer_d = gains.outer_d;
@@ -84,7 +86,33 @@ PidLawConstants pid_law_constants(const PidGains& gains, const PidOptions& optio
   k.velocity_feedforward = options.velocity_feedforward;
   k.yaw_frame_mapping = options.yaw_frame_mapping;
   k.yaw_rate_loop = options.yaw_loop == PidYawLoop::kRate;
+  k.acceleration_feed_forward = options.acceleration_feed_forward || options.drag_feed_forward;
+  k.angular_feed_forward = options.angular_feed_forward;
+  k.drag_feed_forward = options.drag_feed_forward;
+  k.inertia_kgm2 = inertia_kgm2;
   return k;
+}
+
+void pid_feed_forward(const ReferencePoint& reference, const PidLawConstants& k,
+                      const VehicleModel& model, Vec3& acceleration_m_s2, Vec3& angular_velocity_B,
+                      Vec3& angular_acceleration_B) {
+  acceleration_m_s2.setZero();
+  angular_velocity_B.setZero();
+  angular_acceleration_B.setZero();
+  if (!k.acceleration_feed_forward && !k.angular_feed_forward) return;
+  if (k.acceleration_feed_forward && !k.drag_feed_forward)
+    acceleration_m_s2 = reference.acceleration_m_s2;
+  planning::FlatAttitude attitude;
+  if ((!k.angular_feed_forward && !k.drag_feed_forward) ||
+      !reference_flat_attitude(reference, k.gravity_m_s2, attitude))
+    return;
+  if (k.angular_feed_forward) {
+    angular_velocity_B = attitude.angular_velocity_B_rad_s;
+    angular_acceleration_B = attitude.angular_acceleration_B_rad_s2;
+  }
+  if (k.drag_feed_forward)
+    acceleration_m_s2 =
+        reference.acceleration_m_s2 - flat_drag_force_W(reference, attitude, model) / k.mass_kg;
 }
 
 void CascadedPid::set_control_period(double dt_s) {
@@ -104,15 +132,20 @@ GeneralizedForce CascadedPid::do_calculate_u(const ControlInput& in) {
   const StateVector& x = in.state;
   const ReferencePoint& ref = in.reference;
   // The law itself is control/pid_law.hpp, shared with the batched controller.
-  const PidLawInput<double> law_in{x.segment<3>(kPosition),
-                                   x.segment<3>(kVelocity),
-                                   x.segment<4>(kQuaternion),
-                                   x.segment<3>(kAngularVelocity),
-                                   in.state_derivative.segment<3>(kAngularVelocity),
-                                   ref.position_m,
-                                   ref.velocity_m_s,
-                                   ref.yaw_rad,
-                                   ref.yaw_rate_rad_s};
+  PidLawInput<double> law_in{x.segment<3>(kPosition),
+                             x.segment<3>(kVelocity),
+                             x.segment<4>(kQuaternion),
+                             x.segment<3>(kAngularVelocity),
+                             in.state_derivative.segment<3>(kAngularVelocity),
+                             ref.position_m,
+                             ref.velocity_m_s,
+                             ref.yaw_rad,
+                             ref.yaw_rate_rad_s,
+                             Vec3::Zero(),
+                             Vec3::Zero(),
+                             Vec3::Zero()};
+  pid_feed_forward(ref, law_, model(), law_in.acceleration_ref_m_s2, law_in.angular_velocity_ref_B,
+                   law_in.angular_acceleration_ref_B);
   return cascaded_pid_law(law_, law_in, dt_s_, integral_);
 }
 

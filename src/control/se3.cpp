@@ -4,12 +4,10 @@
 #include <cmath>
 #include <numbers>
 
+#include "dronetwin/control/feed_forward.hpp"
 #include "dronetwin/core/error.hpp"
-#include "dronetwin/dynamics/body_drag.hpp"
-#include "dronetwin/dynamics/rotor.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/model/allocation.hpp"
-#include "dronetwin/planning/flatness.hpp"
 
 namespace dronetwin {
 
@@ -33,44 +31,15 @@ Se3FeedForward<double> se3_feed_forward(const ReferencePoint& ref, const Vehicle
                                         const Se3LawConstants& k) {
   Se3FeedForward<double> ff{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
   if (!k.angular_feed_forward && !k.drag_feed_forward) return ff;
-  planning::FlatOutput f;
-  f.position_m = ref.position_m;
-  f.velocity_m_s = ref.velocity_m_s;
-  f.acceleration_m_s2 = ref.acceleration_m_s2;
-  f.jerk_m_s3 = ref.jerk_m_s3;
-  f.snap_m_s4 = ref.snap_m_s4;
-  f.yaw_rad = ref.yaw_rad;
-  f.yaw_rate_rad_s = ref.yaw_rate_rad_s;
-  f.yaw_acceleration_rad_s2 = ref.yaw_acceleration_rad_s2;
   planning::FlatAttitude attitude;
   // Singular reference (free fall, thrust along the heading): no feed-forward this step.
-  if (planning::flat_attitude(f, k.gravity_m_s2, attitude) != planning::FlatSingularity::kNone)
-    return ff;
+  if (!reference_flat_attitude(ref, k.gravity_m_s2, attitude)) return ff;
   if (k.angular_feed_forward) {
     ff.angular_velocity_B = attitude.angular_velocity_B_rad_s;
     ff.angular_acceleration_B = attitude.angular_acceleration_B_rad_s2;
   }
-  if (k.drag_feed_forward) {
-    // Eq. 2.32 in still air on the flat state, through the force kernel's own linear drag maps
-    // (dynamics/body_drag.hpp, dynamics/rotor.hpp) of [v_B; w_B]: the frame's, and each rotor's
-    // times C_D |w_i| at the speeds the allocation gives for the flat thrust and torques.
-    const Mat3& R = attitude.R_WB;
-    const Vec3& w = attitude.angular_velocity_B_rad_s;
-    const Mat3& J = model.inertia_kgm2();
-    GeneralizedForce u;
-    u << model.mass_kg() * attitude.thrust_per_mass_m_s2,
-        J * attitude.angular_acceleration_B_rad_s2 + w.cross(J * w);
-    const RotorVector speeds = allocate_with_saturation(model, u).speeds_rad_s;
-    Matrix6<double> drag_map = body_drag_map<double>(model.body_drag_Ns_per_m());
-    for (int i = 0; i < model.num_rotors(); ++i) {
-      const RotorParams& r = model.rotor(i);
-      drag_map += r.rotor_drag_coefficient * std::abs(speeds[i]) *
-                  rotor_drag_map<double>(r.position_m, r.axis);
-    }
-    Vector6<double> air_and_rate;
-    air_and_rate << R.transpose() * ref.velocity_m_s, w;
-    ff.drag_compensation_W = -(R * (drag_map * air_and_rate).head<3>());
-  }
+  // The drag force is cancelled to first order: the flat attitude itself is the drag-free one.
+  if (k.drag_feed_forward) ff.drag_compensation_W = -flat_drag_force_W(ref, attitude, model);
   return ff;
 }
 

@@ -1,7 +1,9 @@
 // The batched cascaded PID against CascadedPid flown by ClosedLoop at the physics rate: in double
-// every lane is the same flight, for the controller as printed (Eq. 3.21 gains, no options) and
-// for the pole-placed configuration of config/controllers/pid_tuned.yaml (every option on), with
-// per-lane masses and references; a lane's integral is its own.
+// every lane is the same flight, for the controller as printed (Eq. 3.21 gains, no options), for
+// the pole-placed configuration of config/controllers/pid_tuned.yaml (every option on) and for
+// that one with the acceleration, angular and drag feed-forward, with per-lane masses and
+// references (moving ones: acceleration, jerk, snap and yaw acceleration); a lane's integral is its
+// own.
 
 #include "dronetwin/batch/batch_pid.hpp"
 
@@ -40,8 +42,12 @@ std::pair<PidGains, PidOptions> tuned() {
 TEST(BatchPid, EveryLaneEqualsCascadedPidInAClosedLoop) {
   const auto model = test::load_model("qdrone2");
   SimConfig cfg;
+  auto feed_forward = tuned();
+  feed_forward.second.acceleration_feed_forward = true;
+  feed_forward.second.angular_feed_forward = true;
+  feed_forward.second.drag_feed_forward = true;
   const std::vector<std::pair<PidGains, PidOptions>> configs = {
-      {PidGains::thesis_simulation(), PidOptions{}}, tuned()};
+      {PidGains::thesis_simulation(), PidOptions{}}, tuned(), feed_forward};
   for (std::size_t c = 0; c < configs.size(); ++c) {
     const auto& [gains, options] = configs[c];
     constexpr int N = 9, kSteps = 3000;
@@ -61,6 +67,10 @@ TEST(BatchPid, EveryLaneEqualsCascadedPidInAClosedLoop) {
       r.velocity_m_s = 0.1 * Vec3(rng.normal(), rng.normal(), 0.0);
       r.yaw_rad = 3.0 * rng.normal();  // beyond +-pi: the wrap option matters
       r.yaw_rate_rad_s = 0.05 * rng.normal();
+      r.acceleration_m_s2 = 0.3 * Vec3(rng.normal(), rng.normal(), rng.normal());
+      r.jerk_m_s3 = 0.5 * Vec3(rng.normal(), rng.normal(), rng.normal());
+      r.snap_m_s4 = Vec3(rng.normal(), rng.normal(), rng.normal());
+      r.yaw_acceleration_rad_s2 = 0.1 * rng.normal();
       refs.push_back(r);
       masses.push_back(model->mass_kg() * (0.95 + 0.1 * rng.uniform()));
       batch.set_parameter(ModelParameter::kMass, l, masses.back());

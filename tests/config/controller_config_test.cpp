@@ -206,6 +206,9 @@ options:
   velocity_feedforward: true
   yaw_frame_mapping: true
   yaw_loop: rate
+  acceleration_feed_forward: true
+  angular_feed_forward: true
+  drag_feed_forward: true
 )";
   const ControllerConfig c = parse_controller_config(text, "mem.yaml");
   EXPECT_EQ(c.description, "all options");
@@ -217,6 +220,9 @@ options:
               std::get<PidSettings>(c.settings).options.velocity_feedforward &&
               std::get<PidSettings>(c.settings).options.yaw_frame_mapping);
   EXPECT_EQ(std::get<PidSettings>(c.settings).options.yaw_loop, PidYawLoop::kRate);
+  EXPECT_TRUE(std::get<PidSettings>(c.settings).options.acceleration_feed_forward &&
+              std::get<PidSettings>(c.settings).options.angular_feed_forward &&
+              std::get<PidSettings>(c.settings).options.drag_feed_forward);
 }
 
 TEST(ControllerConfig, ExactMessagesForTheCommonMistakes) {

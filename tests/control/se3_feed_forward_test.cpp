@@ -18,38 +18,17 @@
 #include <cstdio>
 #include <vector>
 
-#include "dronetwin/control/closed_loop.hpp"
+#include "control/aggressive_lap.hpp"
 #include "dronetwin/control/se3.hpp"
-#include "dronetwin/control/trajectory_reference.hpp"
 #include "dronetwin/planning/flatness.hpp"
-#include "dronetwin/planning/min_snap.hpp"
-#include "test_support.hpp"
 
 namespace dronetwin {
 namespace {
 
 using planning::Trajectory;
-
-std::shared_ptr<const VehicleModel> qdrone2() {
-  static const auto model = test::load_model("qdrone2");
-  return model;
-}
-
-// A 6.4 s lap through five waypoints at up to 3.1 m/s, 0.48 rad of tilt and 1.6 rad/s of body
-// rate, with the yaw turning 2 rad and back; feasible for the QDrone2's rotors (checked below),
-// and inside the 0.5 rad tilt cone of config/controllers/se3.yaml.
-Trajectory aggressive_lap() {
-  std::vector<planning::Waypoint> w(5);
-  w[0].position_m = Vec3(0, 0, 1);
-  w[1].position_m = Vec3(2, 1.5, 1.5);
-  w[1].yaw_rad = 1.0;
-  w[2].position_m = Vec3(4, 0, 1);
-  w[2].yaw_rad = 2.0;
-  w[3].position_m = Vec3(2, -1.5, 0.6);
-  w[3].yaw_rad = 1.0;
-  w[4].position_m = Vec3(0, 0, 1);
-  return planning::plan_min_snap(w, {1.6, 1.6, 1.6, 1.6}, {});
-}
+using test::aggressive_lap;
+using test::qdrone2;
+using test::Tracking;
 
 // The flying configuration of config/controllers/se3.yaml (Eq. 3.29 with more roll and pitch
 // damping, the gravity term), with the model's own mass so that the feed-forward is exact.
@@ -64,37 +43,10 @@ Se3Controller controller(bool feed_forward, bool drag_feed_forward = false) {
   return Se3Controller(qdrone2(), gains, options);
 }
 
-struct Tracking {
-  double rms_m = 0.0, max_m = 0.0;
-};
-
-// Position error against the reference at every step of the lap (and 0.5 s after it).
-struct ErrorLog final : LoopObserver {
-  double sum_sq = 0.0, max_m = 0.0;
-  long count = 0;
-  void observe(const ClosedLoop& loop) override {
-    const Simulator& sim = loop.simulator();
-    const Vec3 e = sim.state().segment<3>(state_index::kPosition) -
-                   loop.reference().at(sim.time_s()).position_m;
-    sum_sq += e.squaredNorm();
-    max_m = std::max(max_m, e.norm());
-    ++count;
-  }
-};
-
 Tracking fly(const Trajectory& lap, bool feed_forward, SimConfig cfg,
              bool drag_feed_forward = false) {
-  Simulator sim(qdrone2(), cfg);
-  const planning::FlatOutput start = lap.at(0.0);
-  sim.reset(Simulator::hover_state(start.position_m, start.yaw_rad),
-            qdrone2()->hover_speeds_rad_s());
   Se3Controller se3 = controller(feed_forward, drag_feed_forward);
-  const TrajectoryReference reference(lap);
-  ClosedLoop loop(sim, se3, reference, 1.0 / cfg.dt_s);
-  ErrorLog log;
-  const StepResult r = loop.run(lap.duration_s() + 0.5, &log);
-  EXPECT_TRUE(r.ok());
-  return {std::sqrt(log.sum_sq / static_cast<double>(log.count)), log.max_m};
+  return test::fly_lap(lap, se3, cfg);
 }
 
 SimConfig flatness_model(double dt_s) {

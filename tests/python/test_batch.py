@@ -259,3 +259,48 @@ def test_batched_pid_equals_the_scalar_pid_in_a_closed_loop(qdrone2):
     assert not pid.integral.flags.writeable
     pid.reset_integral(2)
     np.testing.assert_array_equal(pid.integral[2], np.zeros(4))
+
+
+def test_batched_pid_with_feed_forward_equals_the_scalar_pid_on_a_moving_reference(qdrone2):
+    options = dt.PidOptions()
+    options.max_tilt_rad = 0.6
+    options.velocity_feedforward = True
+    options.acceleration_feed_forward = True
+    options.angular_feed_forward = True
+    options.drag_feed_forward = True
+    gains = dt.PidGains.thesis_simulation()
+    point = dt.ReferencePoint([0.5, -0.2, 1.2], [0.4, 0.1, 0.0], [0.8, -0.5, 0.2], 0.3, 0.2)
+    point.jerk_m_s3 = np.array([0.5, 0.3, -0.1])
+    point.snap_m_s4 = np.array([-1.0, 0.4, 0.2])
+    point.yaw_acceleration_rad_s2 = 0.1
+
+    class Fixed(dt.Reference):
+        def at(self, t_s):
+            return point
+
+    batch = dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=2)
+    pid = dt.BatchCascadedPid(qdrone2, gains, options, batch.dt_s, 2)
+    assert pid.reference.shape == (2, 17)
+    pid.set_reference(1, point)
+    # Without drag feed-forward the acceleration columns are the reference's; with it they add
+    # the acceleration that cancels the drag, which points along the velocity.
+    options.drag_feed_forward = False
+    plain = dt.BatchCascadedPid(qdrone2, gains, options, 1e-3, 2)
+    options.drag_feed_forward = True
+    plain.set_reference(1, point)
+    np.testing.assert_array_equal(plain.reference[1, 8:11], point.acceleration_m_s2)
+    drag_part = pid.reference[1, 8:11] - point.acceleration_m_s2
+    assert np.dot(drag_part, point.velocity_m_s) > 0.0
+    assert np.any(pid.reference[1, 11:17] != 0.0), "the flat body rates and accelerations are set"
+    assert np.all(pid.reference[0, 8:17] == 0.0), "lane 0 keeps its own reference"
+    batch.reset(None, dt.Simulator.hover_state([0, 0, 1]), qdrone2.hover_speeds_rad_s())
+    assert batch.step(1500, pid) == 0
+    sim = dt.Simulator(qdrone2, dt.SimConfig())
+    sim.reset(dt.Simulator.hover_state([0, 0, 1]), qdrone2.hover_speeds_rad_s())
+    scalar = dt.CascadedPid(qdrone2, gains, options, 1e-3)
+    loop = dt.ClosedLoop(sim, scalar, Fixed(), 1000.0)
+    for _ in range(1500):
+        loop.step()
+    np.testing.assert_array_equal(batch.state[1], sim.state)
+    with pytest.raises(ValueError, match="lane 2 is out of range"):
+        pid.set_reference(2, point)

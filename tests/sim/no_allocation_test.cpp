@@ -10,6 +10,7 @@
 #include <new>
 #include <vector>
 
+#include "control/aggressive_lap.hpp"
 #include "dronetwin/batch/batch_body_rate.hpp"
 #include "dronetwin/batch/batch_pid.hpp"
 #include "dronetwin/batch/batch_se3.hpp"
@@ -150,6 +151,35 @@ TEST(NoAllocation, BatchSteppingDoesNotAllocate) {
   EXPECT_EQ(g_allocations.load(), before);
 }
 
+// The cascaded PID and SE(3) with every feed-forward on a trajectory: the flat attitude and the
+// drag's allocation are computed each update without allocating.
+TEST(NoAllocation, ControllersWithFeedForwardDoNotAllocate) {
+  const planning::Trajectory lap = test::aggressive_lap();
+  const TrajectoryReference reference(lap);
+  PidOptions pid_options;
+  pid_options.acceleration_feed_forward = true;
+  pid_options.angular_feed_forward = true;
+  pid_options.drag_feed_forward = true;
+  pid_options.max_tilt_rad = 0.6;
+  CascadedPid pid(test::qdrone2(), PidGains::thesis_simulation(), pid_options, 1e-3);
+  Se3Options se3_options;
+  se3_options.gravity_compensation = true;
+  se3_options.angular_feed_forward = true;
+  se3_options.drag_feed_forward = true;
+  Se3Controller se3(test::qdrone2(), Se3Gains::thesis(), se3_options);
+  for (ControllerBase* controller :
+       {static_cast<ControllerBase*>(&pid), static_cast<ControllerBase*>(&se3)}) {
+    Simulator sim(test::qdrone2(), SimConfig{});
+    sim.reset(Simulator::hover_state(lap.at(0.0).position_m),
+              test::qdrone2()->hover_speeds_rad_s());
+    ClosedLoop loop(sim, *controller, reference, 1000.0);
+    ASSERT_TRUE(loop.step().ok());
+    const long before = g_allocations.load();
+    for (int k = 0; k < 500; ++k) ASSERT_TRUE(loop.step().ok());
+    EXPECT_EQ(g_allocations.load() - before, 0) << controller->name();
+  }
+}
+
 // Noise, the three batched inner loops and the batched allocation allocate nothing per step.
 TEST(NoAllocation, BatchNoiseAndInnerLoopsDoNotAllocate) {
   const auto model = test::load_model("qdrone2");
@@ -157,7 +187,11 @@ TEST(NoAllocation, BatchNoiseAndInnerLoopsDoNotAllocate) {
   noisy.noise.enabled = true;
   BatchSimulator<double> batch(model, noisy, 50, 2);
   BatchSe3Controller<double> se3(model, Se3Gains::thesis(), Se3Options{}, 50);
-  BatchCascadedPid<double> pid(model, PidGains::thesis_simulation(), PidOptions{}, noisy.dt_s, 50);
+  PidOptions feed_forward;
+  feed_forward.acceleration_feed_forward = true;
+  feed_forward.angular_feed_forward = true;
+  feed_forward.drag_feed_forward = true;
+  BatchCascadedPid<double> pid(model, PidGains::thesis_simulation(), feed_forward, noisy.dt_s, 50);
   BatchBodyRateController<double> rates(model, BodyRateGains{}, 50);
   const StateVector hover = Simulator::hover_state(Vec3(0, 0, 1));
   for (int l = 0; l < 50; ++l) {

@@ -10,8 +10,11 @@
 //   batch.step(1000, pid);
 //
 // References: reference_data()[k * stride + lane], k = 0-2 position, 3-5 velocity, 6 yaw, 7 yaw
-// rate. The controller reads the measured state derivative (its D2 term on the angular
-// acceleration), so the batch evaluates the force model once more per step for it.
+// rate, 8-10 acceleration (read with PidOptions::acceleration_feed_forward), 11-13 the flat body
+// rates and 14-16 angular accelerations of the reference (PidOptions::angular_feed_forward);
+// set_reference computes them in double as CascadedPid does each step. The controller reads the
+// measured state derivative (its D2 term on the angular acceleration), so the batch evaluates the
+// force model once more per step for it.
 //
 // Trap: the integral uses `control_period_s` as its dt; the batch runs the controller every
 // physics step, so give it the batch's dt_s() (checked: the constructor refuses a non-positive
@@ -32,7 +35,7 @@ class BatchCascadedPid final : public BatchInnerLoop<T> {
   using typename BatchInnerLoop<T>::Lanes;
   using typename BatchInnerLoop<T>::Mask;
   static constexpr int kLanes = BatchInnerLoop<T>::kLanes;
-  static constexpr int kReferenceSize = 8;
+  static constexpr int kReferenceSize = 17;
 
   /// Gains and options as CascadedPid (the same checks). Every lane's reference starts at the
   /// origin, yaw 0, its integral at zero.

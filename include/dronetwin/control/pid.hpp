@@ -15,6 +15,20 @@
 // Euler angles come from the normalised measured quaternion through atan2 (notes #23); psi_dot
 // from the body rates through Eq. 2.8; w_dot_B is the measured state derivative.
 //
+// Feed-forward (not in the thesis; both off as printed), from the reference's derivatives:
+//   acceleration_feed_forward: u_outer += [a_x / g, a_y / g, m a_z, 0]: the tilt the reference's
+//     acceleration needs in the small-angle mapping of Eq. 3.18 (a_x = g theta, a_y = -g phi),
+//     and its vertical thrust;
+//   angular_feed_forward: with w_ref, w_dot_ref the body rates and angular accelerations of the
+//     reference's flat attitude (planning/flatness.hpp, from its jerk, snap and yaw motion),
+//     tau = K_P,in e_att - K_D1 (w_B - w_ref) - K_D2 (w_dot_B - w_dot_ref)
+//           + J w_dot_ref + w_ref x J w_ref         (J: the controller model's inertia).
+//   drag_feed_forward: the acceleration feed-forward (on with it) also cancels the model's frame
+//     and rotor drag at the reference velocity on the flat attitude (control/feed_forward.hpp):
+//     a_ff = a_ref - F_drag / m, as SE(3)'s drag feed-forward;
+//   Where the flat attitude is singular (free fall, thrust along the heading) w_ref = w_dot_ref
+//   = 0 and F_drag = 0 for that step. docs/controllers.md, "Feed-forward", measures them.
+//
 // Sign check (z up, x forward, y left, R = Rz Ry Rx): R e3 = [cos phi sin theta, -sin phi,
 // cos phi cos theta] at psi = 0, so a positive pitch tilts the thrust toward +x and a positive roll
 // toward -y. Eq. 3.18's theta_des = +u_x and phi_des = -u_y are therefore right in our frames, as
@@ -36,6 +50,7 @@
 
 #include "dronetwin/control/controller_base.hpp"
 #include "dronetwin/control/pid_law.hpp"
+#include "dronetwin/control/reference.hpp"
 
 namespace dronetwin {
 
@@ -89,10 +104,26 @@ struct PidOptions {
   /// Eq. 3.18 (as printed: no rotation, which is only right at psi = 0).
   bool yaw_frame_mapping = false;
   PidYawLoop yaw_loop = PidYawLoop::kThesis;
+  /// Tilt and thrust feed-forward of the reference's acceleration (see the top of this file).
+  bool acceleration_feed_forward = false;
+  /// Body-rate, angular-acceleration and torque feed-forward of the reference's flat attitude.
+  bool angular_feed_forward = false;
+  /// Cancel the model's drag at the reference velocity through the acceleration feed-forward.
+  bool drag_feed_forward = false;
 };
 
-/// The constants of the law (control/pid_law.hpp) for these gains and options.
-PidLawConstants pid_law_constants(const PidGains& gains, const PidOptions& options);
+/// The constants of the law (control/pid_law.hpp) for these gains and options; J is the
+/// controller model's inertia (read only with angular_feed_forward).
+PidLawConstants pid_law_constants(const PidGains& gains, const PidOptions& options,
+                                  const Mat3& inertia_kgm2);
+
+/// The feed-forward inputs of the law for one reference point: the acceleration to feed forward
+/// (the reference's, less the drag's F_drag / m with drag_feed_forward) and, with
+/// angular_feed_forward, its flat body rates and angular accelerations. Zero where the options
+/// are off; the flat terms are zero where the flat attitude is singular.
+void pid_feed_forward(const ReferencePoint& reference, const PidLawConstants& k,
+                      const VehicleModel& model, Vec3& acceleration_m_s2, Vec3& angular_velocity_B,
+                      Vec3& angular_acceleration_B);
 
 class CascadedPid final : public ControllerBase {
  public:

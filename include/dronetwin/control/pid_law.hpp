@@ -6,7 +6,7 @@
 // sin, cos, remainder) run lane by lane (lanewise, core/simd.hpp), so each lane of a pack equals
 // the double controller bit for bit.
 //
-//   PidLawConstants k = pid_law_constants(gains, options);
+//   PidLawConstants k = pid_law_constants(gains, options, J);
 //   Vector4<double> integral = Vector4<double>::Zero();          // the controller's memory
 //   Vector4<double> u = cascaded_pid_law(k, in, dt_s, integral);  // [T, tau]; integral advanced
 
@@ -30,7 +30,12 @@ struct PidLawConstants {
   bool yaw_error_wrap = false;
   bool velocity_feedforward = false;
   bool yaw_frame_mapping = false;
-  bool yaw_rate_loop = false;  ///< PidYawLoop::kRate
+  bool yaw_rate_loop = false;              ///< PidYawLoop::kRate
+  bool acceleration_feed_forward = false;  ///< on with PidOptions::drag_feed_forward too
+  bool angular_feed_forward = false;
+  bool drag_feed_forward = false;  ///< read by pid_feed_forward, not by the law
+  /// The controller model's inertia, for the torque of the angular feed-forward.
+  Mat3 inertia_kgm2 = Mat3::Zero();
 };
 
 /// What the law reads for one vehicle (or one pack).
@@ -42,6 +47,11 @@ struct PidLawInput {
   Vector3<S> angular_acceleration_B;  ///< from the measured state derivative
   Vector3<S> position_ref_m, velocity_ref_m_s;
   S yaw_ref_rad, yaw_rate_ref_rad_s;
+  /// Read only with PidLawConstants::acceleration_feed_forward.
+  Vector3<S> acceleration_ref_m_s2;
+  /// The reference's flat body rates and angular accelerations (planning/flatness.hpp); read
+  /// only with PidLawConstants::angular_feed_forward.
+  Vector3<S> angular_velocity_ref_B, angular_acceleration_ref_B;
 };
 
 /// u = [T, tau] of Eq. 3.15-3.20 at one control update of period dt_s; `integral` (per axis
@@ -95,10 +105,22 @@ Vector4<S> cascaded_pid_law(const PidLawConstants& k, const PidLawInput<S>& in, 
   for (int i = 0; i < 4; ++i)
     integral[i] = scalar::min(scalar::max(S(integral[i] + e_p[i] * dt), S(-c(k.integral_limit[i]))),
                               c(k.integral_limit[i]));
+  // Acceleration feed-forward: the tilt the reference's horizontal acceleration needs in the
+  // small-angle mapping of Eq. 3.18 (a_x = g theta, a_y = -g phi at hover), and the thrust of its
+  // vertical one.
+  Vector4<S> u_ff = Vector4<S>::Constant(zero);
+  if (k.acceleration_feed_forward) {
+    const S inv_g = c(1.0 / k.gravity_m_s2);
+    u_ff[0] = in.acceleration_ref_m_s2[0] * inv_g;
+    u_ff[1] = in.acceleration_ref_m_s2[1] * inv_g;
+    u_ff[2] = c(k.mass_kg) * in.acceleration_ref_m_s2[2];
+  }
   const auto outer = [&](const Vector4<S>& I) {
     Vector4<S> u;
     for (int i = 0; i < 4; ++i)
       u[i] = (c(k.outer_p[i]) * e_p[i] + c(k.outer_d[i]) * e_v[i]) + c(k.outer_i[i]) * I[i];
+    if (k.acceleration_feed_forward)
+      for (int i = 0; i < 3; ++i) u[i] = u[i] + u_ff[i];
     return u;
   };
   Vector4<S> u_outer = outer(integral);
@@ -146,9 +168,29 @@ Vector4<S> cascaded_pid_law(const PidLawConstants& k, const PidLawInput<S>& in, 
                    k.yaw_rate_loop ? S(psi_des - w_B[2]) : psi_des);
   Vector4<S> u;
   u[0] = thrust;
+  if (!k.angular_feed_forward) {
+    for (int i = 0; i < 3; ++i)
+      u[1 + i] = (c(k.inner_p[i]) * e_att[i] - c(k.inner_d1[i]) * w_B[i]) -
+                 c(k.inner_d2[i]) * in.angular_acceleration_B[i];
+    return u;
+  }
+  // Angular feed-forward: the damping acts on the rate errors to the reference's flat body rates
+  // and angular accelerations, and the torque J w_dot_ref + w_ref x J w_ref they need is added.
+  const Vector3<S>& w_ref = in.angular_velocity_ref_B;
+  const Vector3<S>& dw_ref = in.angular_acceleration_ref_B;
+  Vector3<S> Jw, Jdw;
+  for (int i = 0; i < 3; ++i) {
+    Jw[i] = (c(k.inertia_kgm2(i, 0)) * w_ref[0] + c(k.inertia_kgm2(i, 1)) * w_ref[1]) +
+            c(k.inertia_kgm2(i, 2)) * w_ref[2];
+    Jdw[i] = (c(k.inertia_kgm2(i, 0)) * dw_ref[0] + c(k.inertia_kgm2(i, 1)) * dw_ref[1]) +
+             c(k.inertia_kgm2(i, 2)) * dw_ref[2];
+  }
+  const Vector3<S> gyro(w_ref[1] * Jw[2] - w_ref[2] * Jw[1], w_ref[2] * Jw[0] - w_ref[0] * Jw[2],
+                        w_ref[0] * Jw[1] - w_ref[1] * Jw[0]);
   for (int i = 0; i < 3; ++i)
-    u[1 + i] = (c(k.inner_p[i]) * e_att[i] - c(k.inner_d1[i]) * w_B[i]) -
-               c(k.inner_d2[i]) * in.angular_acceleration_B[i];
+    u[1 + i] = ((c(k.inner_p[i]) * e_att[i] - c(k.inner_d1[i]) * (w_B[i] - w_ref[i])) -
+                c(k.inner_d2[i]) * (in.angular_acceleration_B[i] - dw_ref[i])) +
+               (Jdw[i] + gyro[i]);
   return u;
 }
 
