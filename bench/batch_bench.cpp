@@ -129,25 +129,32 @@ void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
 }
 
 // Two-thread scaling measured so that the machine's speed cancels out: a 1-thread and a 2-thread
-// batch of the same lanes take turns call by call (the order alternating), each call timed on its
-// own, and `scaling` is the 1-thread time over the 2-thread time. On a shared virtual machine
-// the clock rate drifts by tens of percent within seconds, so the ratio of two separate benchmark
-// runs mixes that drift into the figure; interleaving the calls does not.
+// batch of the same lanes take turns (the order alternating), each call timed on its own, and
+// `scaling` is the 1-thread time over the 2-thread time. On a shared virtual machine the clock
+// rate drifts by tens of percent within seconds, so the ratio of two separate benchmark runs
+// mixes that drift into the figure; interleaving the calls does not. `in_a_row` calls of one
+// batch go before the other's turn: 1 puts the other batch's call between two calls (the caller
+// busy elsewhere between steps, longer than the pool's polling window at N = 1024), 16 measures
+// calls back to back (a stepping loop), still alternating every ~16 calls so the drift cancels.
 template <class T>
 void scaling(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
   const int n = static_cast<int>(state.range(0));
   const int steps = static_cast<int>(state.range(1));
+  const int in_a_row = static_cast<int>(state.range(2));
   Rig<T> one(n, 1, mode), two(n, 2, mode);
   using Clock = std::chrono::steady_clock;
   Clock::duration time_one{}, time_two{};
   bool one_first = true;
   for (auto _ : state) {
-    if (one.due()) one.restart();
-    if (two.due()) two.restart();
     const auto timed = [&](Rig<T>& rig) {
-      const auto start = Clock::now();
-      benchmark::DoNotOptimize(rig.step(steps));
-      return Clock::now() - start;
+      Clock::duration total{};
+      for (int call = 0; call < in_a_row; ++call) {
+        if (rig.due()) rig.restart();
+        const auto start = Clock::now();
+        benchmark::DoNotOptimize(rig.step(steps));
+        total += Clock::now() - start;
+      }
+      return total;
     };
     if (one_first) {
       time_one += timed(one);
@@ -158,7 +165,7 @@ void scaling(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
     }
     one_first = !one_first;
   }
-  const double vehicle_steps = static_cast<double>(state.iterations()) * n * steps;
+  const double vehicle_steps = static_cast<double>(state.iterations()) * n * steps * in_a_row;
   const auto seconds = [](Clock::duration d) { return std::chrono::duration<double>(d).count(); };
   state.counters["scaling"] = seconds(time_one) / seconds(time_two);
   state.counters["M_steps/s_1thread"] = vehicle_steps / seconds(time_one) / 1e6;
@@ -198,9 +205,10 @@ BENCHMARK(BM_BatchDoubleFaults)->Apply(sizes);
 BENCHMARK(BM_BatchDoubleBattery)->Apply(sizes);
 
 void scaling_sizes(benchmark::internal::Benchmark* b) {
-  b->ArgNames({"N", "steps"});
-  for (int n : {1024, 16384})
-    for (int steps : {1, 10}) b->Args({n, steps});
+  b->ArgNames({"N", "steps", "in_a_row"});
+  for (int in_a_row : {1, 16})
+    for (int n : {1024, 16384})
+      for (int steps : {1, 10}) b->Args({n, steps, in_a_row});
 }
 BENCHMARK(BM_ScalingDouble)->Apply(scaling_sizes);
 BENCHMARK(BM_ScalingFloat)->Apply(scaling_sizes);
