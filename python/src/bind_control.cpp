@@ -584,6 +584,8 @@ void bind_control(py::module_& m) {
       .def_readwrite("max_thrust_N", &NmpcOptions::max_thrust_N)
       .def_readwrite("max_tilt_rad", &NmpcOptions::max_tilt_rad)
       .def_readwrite("max_moment_Nm", &NmpcOptions::max_moment_Nm)
+      .def_readwrite("inner_feed_forward", &NmpcOptions::inner_feed_forward,
+                     "Feed the plan's body rates and angular acceleration to the inner loop.")
       .def_readwrite("disturbance_gain", &NmpcOptions::disturbance_gain)
       .def_readwrite("max_disturbance_m_s2", &NmpcOptions::max_disturbance_m_s2)
       .def_readwrite("moment_observer_time_constant_s",

@@ -69,10 +69,10 @@ double tilt(const Reader& rd, const YAML::Node& node, const std::string& path) {
 // ---- key tables -------------------------------------------------------------------------------
 
 constexpr std::array<std::string_view, 4> kTypes = {"pid", "se3", "nmpc", "policy"};
-constexpr std::array<std::string_view, 17> kTopKeys = {
+constexpr std::array<std::string_view, 18> kTopKeys = {
     "type",   "description", "allocation",    "mass_kg",  "gravity_m_s2", "gains",
     "limits", "options",     "horizon",       "weights",  "solver",       "disturbance",
-    "policy", "env",         "env_overrides", "training", "payload"};
+    "policy", "env",         "env_overrides", "training", "payload",      "inner_loop"};
 constexpr std::array<std::string_view, 4> kPolicyOnlyKeys = {"policy", "env", "env_overrides",
                                                              "training"};
 constexpr std::array<std::string_view, 2> kAllocations = {"exact", "thesis"};
@@ -104,8 +104,9 @@ constexpr std::array<std::string_view, 4> kNmpcSolverKeys = {"max_iterations", "
 constexpr std::array<std::string_view, 4> kNmpcDisturbanceKeys = {
     "gain", "max_m_s2", "moment_time_constant_s", "max_moment_Nm"};
 constexpr std::array<std::string_view, 2> kLinearSolvers = {"dense_normal_cholesky", "dense_qr"};
-constexpr std::array<std::string_view, 4> kNmpcOnlyKeys = {"horizon", "weights", "solver",
-                                                           "disturbance"};
+constexpr std::array<std::string_view, 5> kNmpcOnlyKeys = {"horizon", "weights", "solver",
+                                                           "disturbance", "inner_loop"};
+constexpr std::array<std::string_view, 1> kNmpcInnerLoopKeys = {"feed_forward"};
 
 const char* const kOuter = "x, y, z, psi";
 const char* const kInner = "roll, pitch, yaw";
@@ -272,6 +273,13 @@ void read_nmpc(const Reader& rd, const Map& top, NmpcSettings& c) {
           rd.positive(d.get("moment_time_constant_s"), d.path("moment_time_constant_s"));
     if (d.has("max_moment_Nm"))
       o.max_moment_disturbance_Nm = rd.positive(d.get("max_moment_Nm"), d.path("max_moment_Nm"));
+  }
+
+  if (top.has("inner_loop")) {
+    const Map il =
+        rd.map(top.get("inner_loop"), "inner_loop", kNmpcInnerLoopKeys, "a map with feed_forward");
+    if (il.has("feed_forward"))
+      o.inner_feed_forward = rd.boolean(il.get("feed_forward"), il.path("feed_forward"));
   }
 
   const Map g = rd.map(top.required("gains"), "gains", kSe3GainKeys,

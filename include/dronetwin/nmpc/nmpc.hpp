@@ -18,7 +18,11 @@
 // Between solves, and at every call, the inner loop applies the SE(3) attitude law
 // (se3_attitude_moment) to the plan: thrust direction b3d = the predicted body z axis at the end
 // of the current interval, clipped to the tilt cone; collective thrust f = b3d . F (Eq. 3.23's
-// thrust there), clipped to thrust_N[1]. The controller must therefore be called at the
+// thrust there), clipped to thrust_N[1]. With NmpcOptions::inner_feed_forward (our addition;
+// off as in the thesis) the attitude law is Lee et al.'s full one (control/se3_law.hpp) with the
+// plan's body rates at the end of the interval as w_d and the angular acceleration its moment
+// gives, J^-1 (M_plan - w x J w), as w_d': the inner loop no longer damps the rates the plan
+// turns at. The controller must therefore be called at the
 // inner-loop rate (e.g. 1 kHz); `call_rate_hz` must be a whole multiple of 1 / step_s, and
 // solves happen on calls 0, s, 2s, ... (s = call_rate_hz * step_s) by count, never by wall clock.
 //
@@ -102,6 +106,9 @@ struct NmpcOptions {
   double function_tolerance = 1e-6;  ///< Ceres relative cost-change tolerance
   NmpcLinearSolver linear_solver = NmpcLinearSolver::kDenseNormalCholesky;
 
+  /// Inner loop: feed the plan's body rates and angular acceleration forward (see the top of
+  /// this file). Off: w_d = w_d' = 0 as Eq. 3.28.
+  bool inner_feed_forward = false;
   /// Inner loop: SE(3) attitude gains (K_R, K_w) and, for the fallback, position gains (K_p,
   /// K_d); gravity term, tilt cone and non-negative thrust are always on in the fallback.
   Se3Gains se3 = Se3Gains::thesis();
