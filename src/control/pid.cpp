@@ -99,10 +99,10 @@ void pid_feed_forward(const ReferencePoint& reference, const PidLawConstants& k,
   acceleration_m_s2.setZero();
   angular_velocity_B.setZero();
   angular_acceleration_B.setZero();
-  if (!k.acceleration_feed_forward && !k.angular_feed_forward) return;
-  if (k.acceleration_feed_forward && !k.drag_feed_forward)
-    acceleration_m_s2 = reference.acceleration_m_s2;
+  if (k.acceleration_feed_forward) acceleration_m_s2 = reference.acceleration_m_s2;
   planning::FlatAttitude attitude;
+  // The flat terms; where the flat attitude is singular they are zero, and the reference's
+  // acceleration is still fed forward.
   if ((!k.angular_feed_forward && !k.drag_feed_forward) ||
       !reference_flat_attitude(reference, k.gravity_m_s2, attitude))
     return;
@@ -111,8 +111,7 @@ void pid_feed_forward(const ReferencePoint& reference, const PidLawConstants& k,
     angular_acceleration_B = attitude.angular_acceleration_B_rad_s2;
   }
   if (k.drag_feed_forward)
-    acceleration_m_s2 =
-        reference.acceleration_m_s2 - flat_drag_force_W(reference, attitude, model) / k.mass_kg;
+    acceleration_m_s2 -= flat_drag_force_W(reference, attitude, model) / k.mass_kg;
 }
 
 void CascadedPid::set_control_period(double dt_s) {

@@ -57,6 +57,25 @@ TEST(PidFeedForward, TheAccelerationAsksForItsTiltAndThrust) {
   EXPECT_NEAR(u[3], 0.0, 1e-15);
 }
 
+// A reference in free fall has no flat attitude (no thrust direction): the flat terms (rates,
+// drag) are zero for that step, and the acceleration is still fed forward, so the drag option
+// changes nothing there. Here the thrust feed-forward m a_z = -m g cancels the weight term.
+TEST(PidFeedForward, AFreeFallingReferenceKeepsItsAccelerationFeedForward) {
+  PidSettings s = tuned();
+  CascadedPid acceleration = controller(s, true, false);
+  CascadedPid all = controller(s, true, true, true);
+  ControlInput in;
+  in.state = Simulator::hover_state(Vec3(0, 0, 1));
+  in.reference.position_m = Vec3(0, 0, 1);
+  in.reference.velocity_m_s = Vec3(1.0, 0, 0);  // moving: the drag would not be zero
+  in.state.segment<3>(state_index::kVelocity) = Vec3(1.0, 0, 0);
+  in.reference.acceleration_m_s2 = Vec3(0, 0, -s.gains.gravity_m_s2);
+  in.reference.jerk_m_s3 = Vec3(0.3, 0, 0);
+  const GeneralizedForce u = acceleration.calculate_u(in);
+  EXPECT_EQ(all.calculate_u(in), u);
+  EXPECT_NEAR(u[0], 0.0, 1e-12);
+}
+
 // A climb at constant acceleration a from hover: z_ref = z0 + a t^2 / 2. Without the integral
 // the z loop m e'' + K_D e' + K_P e = m a (T = u_z + m g, no drag) settles at e = m a / K_P;
 // the thrust feed-forward m a_ref cancels its source, and the error goes to round-off.
