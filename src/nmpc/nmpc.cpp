@@ -724,21 +724,19 @@ GeneralizedForce NmpcController::do_calculate_u(const ControlInput& in) {
   const Mat3 R = math::rotation_matrix<double>(q);
   const Vec3 w_B = in.state.segment<3>(kAngularVelocity);
   const Mat3& J = model().inertia_kgm2();
-  Vec3 M;
+  Se3FeedForward<double> ff{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
   if (options_.inner_feed_forward) {
     // The plan's rates at the end of the interval (where b3d is taken) and the angular
     // acceleration its moment over the interval gives (Euler's equation, Eq. 3.23).
-    const Vec3 w_plan = plan_x_.row(row + 1).segment<3>(kAngularVelocity).transpose();
+    ff.angular_velocity_B = plan_x_.row(row + 1).segment<3>(kAngularVelocity).transpose();
+    const Vec3& w = ff.angular_velocity_B;
     const Vec3 M_plan = plan_u_.row(row).tail<3>().transpose();
-    const Se3FeedForward<double> ff{w_plan, J.inverse() * (M_plan - w_plan.cross(J * w_plan)),
-                                    Vec3::Zero()};
-    M = se3_attitude_law<double>(R, w_B, b3d, std::cos(in.reference.yaw_rad),
-                                 std::sin(in.reference.yaw_rad), options_.se3.attitude_p,
-                                 options_.se3.attitude_d, J, &ff);
-  } else {
-    M = se3_attitude_moment(R, w_B, b3d, in.reference.yaw_rad, options_.se3.attitude_p,
-                            options_.se3.attitude_d, J);
+    ff.angular_acceleration_B = model().inertia_inverse() * (M_plan - w.cross(J * w));
   }
+  const Vec3 M = se3_attitude_law<double>(R, w_B, b3d, std::cos(in.reference.yaw_rad),
+                                          std::sin(in.reference.yaw_rad), options_.se3.attitude_p,
+                                          options_.se3.attitude_d, J,
+                                          options_.inner_feed_forward ? &ff : nullptr);
   GeneralizedForce u;
   u << f, M;
   return compensate_moment(u);

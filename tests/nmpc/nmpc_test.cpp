@@ -509,6 +509,14 @@ TEST(NmpcConfig, TheFeedForwardFileIsTheShippedOneWithTheFeedForward) {
   bad.replace(at, std::string("feed_forward: true").size(), "feed_forward: 1.5");
   const std::string e = test::error_of([&] { parse_controller_config(bad, "mem.yaml"); });
   EXPECT_NE(e.find("inner_loop.feed_forward"), std::string::npos) << e;
+  // The section belongs to the NMPC: in a PID file it is named as misplaced.
+  std::ifstream pid_in(test::source_path("config/controllers/pid.yaml"));
+  std::stringstream pid_text;
+  pid_text << pid_in.rdbuf();
+  const std::string misplaced = test::error_of([&] {
+    parse_controller_config(pid_text.str() + "inner_loop: {feed_forward: true}\n", "mem.yaml");
+  });
+  EXPECT_NE(misplaced.find("inner_loop: only for type nmpc"), std::string::npos) << misplaced;
 }
 
 // Without feed-forward the attitude law damps the body rates the plan turns at (w_d = 0, Eq.

@@ -16,12 +16,12 @@
 // acceleration estimated from the last plan's velocity error (offset-free MPC; off by default).
 //
 // Between solves, and at every call, the inner loop applies the SE(3) attitude law
-// (se3_attitude_moment) to the plan: thrust direction b3d = the predicted body z axis at the end
-// of the current interval, clipped to the tilt cone; collective thrust f = b3d . F (Eq. 3.23's
-// thrust there), clipped to thrust_N[1]. With NmpcOptions::inner_feed_forward (our addition;
-// off as in the thesis) the attitude law is Lee et al.'s full one (control/se3_law.hpp) with the
-// plan's body rates at the end of the interval as w_d and the angular acceleration its moment
-// gives, J^-1 (M_plan - w x J w), as w_d': the inner loop no longer damps the rates the plan
+// (se3_attitude_law, control/se3_law.hpp) to the plan: thrust direction b3d = the predicted body z
+// axis at the end of the current interval, clipped to the tilt cone; collective thrust f = b3d . F
+// (Eq. 3.23's thrust there), clipped to thrust_N[1]. With NmpcOptions::inner_feed_forward (our
+// addition; off as in the thesis) the attitude law is Lee et al.'s full one (control/se3_law.hpp)
+// with the plan's body rates at the end of the interval as w_d and the angular acceleration its
+// moment gives, J^-1 (M_plan - w x J w), as w_d': the inner loop no longer damps the rates the plan
 // turns at. The controller must therefore be called at the
 // inner-loop rate (e.g. 1 kHz); `call_rate_hz` must be a whole multiple of 1 / step_s, and
 // solves happen on calls 0, s, 2s, ... (s = call_rate_hz * step_s) by count, never by wall clock.
