@@ -191,6 +191,7 @@ void sizes(benchmark::internal::Benchmark* b) {
   for (int n : {1, 64, 1024, 16384}) b->Args({n, 1, 1});
   for (int n : {1024, 16384}) b->Args({n, 10, 1});
   for (int n : {1024, 16384}) b->Args({n, 10, 2});
+  b->Args({1024, 1, 2});  // a stepping loop on two threads, without interleaving (performance.md)
   b->UseRealTime();
 }
 

@@ -29,6 +29,18 @@ TEST(ThreadPool, EveryTaskRunsExactlyOnceOnAnyNumberOfThreads) {
   }
 }
 
+// A task passed by name (an lvalue, const or not) runs as a temporary does: run() takes the
+// task by forwarding reference, and Task is then a reference type.
+TEST(ThreadPool, ANamedOrConstTaskRunsLikeATemporary) {
+  ThreadPool pool(2);
+  std::vector<std::atomic<int>> runs(64);
+  auto task = [&](int i) { runs[static_cast<std::size_t>(i)].fetch_add(1); };
+  const auto& const_task = task;
+  pool.run(64, task);
+  pool.run(64, const_task);
+  for (std::size_t i = 0; i < runs.size(); ++i) ASSERT_EQ(runs[i].load(), 2) << "task " << i;
+}
+
 // How many tasks ran at once at most: each task is inside for `duration`.
 class Concurrency {
  public:

@@ -28,6 +28,7 @@
 #include <exception>
 #include <mutex>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 #include "dronetwin/core/single_thread.hpp"
@@ -48,7 +49,9 @@ class ThreadPool {
   /// are done.
   template <class Task>
   void run(int num_tasks, Task&& task) {
-    run_erased(num_tasks, &task, [](void* t, int i) { (*static_cast<Task*>(t))(i); });
+    using Fn = std::remove_reference_t<Task>;
+    run_erased(num_tasks, const_cast<void*>(static_cast<const void*>(&task)),
+               [](void* t, int i) { (*static_cast<Fn*>(t))(i); });
   }
 
  private:
