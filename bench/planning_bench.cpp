@@ -2,6 +2,8 @@
 // form with fixed segment times, and the segment-time allocation (BFGS on log-times, each
 // iteration one or more closed-form solves). Single thread. Waypoints: a seeded random walk with
 // 1-3 m steps and yaw changes, so the times and the solution are not trivially regular.
+// TimeOptimalLap: the time-optimal flying lap of the shipped circuit (time_optimal/), with the
+// default options (every warm start) and with one warm start; one solve per iteration.
 
 #include <benchmark/benchmark.h>
 
@@ -9,9 +11,13 @@
 #include <cstdint>
 #include <numbers>
 #include <random>
+#include <string>
 #include <vector>
 
+#include "dronetwin/config/model_loader.hpp"
+#include "dronetwin/config/track_loader.hpp"
 #include "dronetwin/planning/min_snap.hpp"
+#include "dronetwin/time_optimal/time_optimal_lap.hpp"
 
 namespace {
 
@@ -67,5 +73,32 @@ void AllocateTimes(benchmark::State& state) {
 BENCHMARK(AllocateTimes)->Arg(10)->Arg(100)->Unit(benchmark::kMillisecond);
 
 }  // namespace
+
+/// Argument 0: the default options (every warm-start factor); otherwise one warm start, the plan
+/// flown at arg / 100 of its feasible segment times.
+void TimeOptimalLapOfTheCircuit(benchmark::State& state) {
+  const std::string root = DRONETWIN_SOURCE_DIR;
+  const VehicleModel model = load_vehicle_model(root + "/models/qdrone2.yaml");
+  const Track track = load_track(root + "/config/tracks/circuit.yaml");
+  TimeOptimalOptions options;
+  if (state.range(0) > 0)
+    options.warm_start_time_factors = {static_cast<double>(state.range(0)) / 100.0};
+  TimeOptimalLap lap(min_snap_lap(track, model, options));
+  for (auto _ : state) {
+    lap = solve_time_optimal_lap(track, model, options);
+    benchmark::DoNotOptimize(lap.lap_time_s);
+  }
+  state.counters["lap_s"] = lap.lap_time_s;
+  state.counters["solves"] = lap.outer_iterations;
+  state.counters["lm_iterations"] = lap.inner_iterations;
+}
+BENCHMARK(TimeOptimalLapOfTheCircuit)
+    ->Arg(0)
+    ->Arg(100)
+    ->Arg(80)
+    ->Arg(60)
+    ->Arg(50)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond);
 
 BENCHMARK_MAIN();

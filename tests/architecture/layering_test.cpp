@@ -161,7 +161,7 @@ TEST(Layering, EveryIncludeGoesDownTheDocumentedLayerOrder) {
 
 TEST(Layering, TheTableItselfIsReadAsDocumented) {
   // A few facts the rest of the project relies on: the core is below everything, yaml-cpp is the
-  // config layer's alone, Ceres the NMPC's and the fits'.
+  // config layer's alone, Ceres the NMPC's, the fits' and the time-optimal lap's.
   const Layers layers = read_layers();
   for (const char* core : {"core", "math", "model", "dynamics", "sim"})
     EXPECT_LT(layers.rank.at(core), layers.rank.at("control")) << core;
@@ -171,7 +171,7 @@ TEST(Layering, TheTableItselfIsReadAsDocumented) {
     if (deps.count("ceres")) ceres_users.push_back(folder);
   }
   EXPECT_EQ(yaml_users, std::vector<std::string>{"config"});
-  EXPECT_EQ(ceres_users, (std::vector<std::string>{"identification", "nmpc"}));
+  EXPECT_EQ(ceres_users, (std::vector<std::string>{"identification", "nmpc", "time_optimal"}));
 }
 
 }  // namespace
