@@ -564,8 +564,10 @@ void bind_planning(py::module_& m) {
   py::module_ pl = m.def_submodule(
       "planning",
       "Trajectory planning (docs/planning.md): minimum-snap trajectories through waypoints,\n"
-      "segment-time allocation, differential flatness, feasibility and time scaling.");
+      "segment-time allocation, differential flatness, feasibility and time scaling, and the\n"
+      "time-optimal lap of a track.");
   bind_planning_module(pl);
+  bind_time_optimal(pl);
   // A pybind11 submodule is only an attribute of its parent; registered under the package's
   // name it also answers `import dronetwin.planning` and `from dronetwin.planning import ...`.
   const std::string core_name = py::str(m.attr("__name__"));

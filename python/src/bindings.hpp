@@ -39,6 +39,8 @@ void bind_battery(py::module_& m);
 void bind_payload(py::module_& m);
 void bind_fleet(py::module_& m);
 void bind_planning(py::module_& m);  // after bind_control: TrajectoryReference is a Reference
+/// dronetwin.planning.time_optimal_lap, into the planning submodule `pl` (from bind_planning).
+void bind_time_optimal(py::module_& pl);
 
 /// 'light', 'moderate' or 'severe' (ValueError naming the choices otherwise).
 TurbulenceSeverity severity_from_name(const std::string& name);

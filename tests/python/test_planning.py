@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import dronetwin as dt
-from conftest import flying_se3
+from conftest import flying_se3, source_path
 from test_docs import undocumented
 
 pl = dt.planning
@@ -404,6 +404,71 @@ def test_planning_is_importable_as_a_module():
     assert Waypoint is pl.Waypoint
     # The control layer's timed Waypoint is a different class.
     assert dt.Waypoint is not pl.Waypoint
+
+
+# ---- the time-optimal lap -------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def circuit_lap(qdrone2):
+    # One warm start and 120 intervals: seconds (the default search is in docs/performance.md).
+    track = dt.load_track(source_path("config", "tracks", "circuit.yaml"))
+    return track, pl.time_optimal_lap(track, qdrone2, intervals=120, warm_start_time_factors=[0.6])
+
+
+def test_time_optimal_lap_is_a_closed_feasible_lap_faster_than_minimum_snap(qdrone2, circuit_lap):
+    _, lap = circuit_lap
+    assert lap["converged"] and lap["max_violation"] <= 1e-6
+    n = len(lap["times_s"])
+    assert lap["states"].shape == (n, 13)
+    assert lap["rotor_speeds_rad_s"].shape == (n - 1, 4)
+    assert lap["times_s"][-1] == pytest.approx(lap["lap_time_s"], abs=1e-9)
+    assert lap["segment_times_s"].sum() == pytest.approx(lap["lap_time_s"], abs=1e-12)
+    assert len(lap["gate_nodes"]) == 8 and lap["gate_nodes"][-1] == n - 1
+    # Every rotor inside its limits; the lap closes on itself.
+    assert lap["rotor_speeds_rad_s"].min() >= 0.0
+    assert lap["rotor_speeds_rad_s"].max() <= 3400.0
+    np.testing.assert_allclose(lap["states"][-1][:6], lap["states"][0][:6], atol=1e-5)
+    # The minimum-snap lap slowed to its rotor limits is a feasible lap of the same circuit.
+    assert lap["lap_time_s"] < lap["min_snap_lap_time_s"]
+    assert lap["min_snap_trajectory"].duration_s == pytest.approx(lap["min_snap_lap_time_s"])
+
+
+def test_time_optimal_lap_from_its_own_flight_is_no_slower(qdrone2, circuit_lap):
+    track, lap = circuit_lap
+    # The lap twice round as a recorded flight: nodes as samples, the rotor speeds held over
+    # each interval (repeated at the interval's end, so the interpolation keeps them).
+    t, x, u = lap["times_s"], lap["states"], lap["rotor_speeds_rad_s"]
+    times, states, speeds = [], [], []
+    for r in range(2):
+        for k in range(len(u)):
+            for frac in (0.0, 0.5):
+                times.append(r * lap["lap_time_s"] + t[k] + frac * (t[k + 1] - t[k]))
+                states.append(x[k] + frac * (x[k + 1] - x[k]))
+                speeds.append(u[k])
+    again = pl.time_optimal_lap(track, qdrone2, intervals=120, flight_times_s=np.array(times),
+                                flight_states=np.array(states),
+                                flight_rotor_speeds_rad_s=np.array(speeds))
+    assert again["converged"]
+    assert again["lap_time_s"] <= lap["lap_time_s"] * (1 + 1e-3)
+
+
+def test_time_optimal_lap_refuses_bad_input_by_name(qdrone2):
+    track = dt.load_track(source_path("config", "tracks", "circuit.yaml"))
+    with pytest.raises(ValueError, match="needs all of flight_times_s, flight_states and"):
+        pl.time_optimal_lap(track, qdrone2, flight_times_s=np.zeros(3))
+    with pytest.raises(ValueError, match=r"flight_states: expected a 2-D float64 array with 13 columns"):
+        pl.time_optimal_lap(track, qdrone2, flight_times_s=np.zeros(3), flight_states=np.zeros((3, 12)),
+                            flight_rotor_speeds_rad_s=np.zeros((3, 4)))
+    with pytest.raises(TypeError, match=r"flight_times_s: expected a 1-D float64 array"):
+        pl.time_optimal_lap(track, qdrone2, flight_times_s=[0.0, 1.0], flight_states=np.zeros((2, 13)),
+                            flight_rotor_speeds_rad_s=np.zeros((2, 4)))
+    with pytest.raises(ValueError, match=r"times_s\[1\]: expected finite and above the one before"):
+        pl.time_optimal_lap(track, qdrone2, flight_times_s=np.zeros(2), flight_states=np.zeros((2, 13)),
+                            flight_rotor_speeds_rad_s=np.zeros((2, 4)))
+    with pytest.raises(ValueError, match=r"warm_start_time_factors\[0\]: expected in \[0.1, 10\], got 0"):
+        pl.time_optimal_lap(track, qdrone2, warm_start_time_factors=[0.0])
+    with pytest.raises(ValueError, match="time_optimal_lap: model: expected a VehicleModel, got None"):
+        pl.time_optimal_lap(track, None)
 
 
 def test_everything_in_planning_is_documented():
