@@ -11,18 +11,6 @@ namespace dronetwin::python {
 
 namespace {
 
-// (rows, width) copy of a per-row quantity of a flight.
-template <class Row>
-py::array_t<double> rows_of(std::size_t rows, int width, Row&& row) {
-  py::array_t<double> a({static_cast<py::ssize_t>(rows), static_cast<py::ssize_t>(width)});
-  auto out = a.mutable_unchecked<2>();
-  for (std::size_t i = 0; i < rows; ++i) {
-    const auto values = row(i);
-    for (int j = 0; j < width; ++j) out(static_cast<py::ssize_t>(i), j) = values[j];
-  }
-  return a;
-}
-
 py::dict stats_dict(const ResidualStats& s) {
   py::dict d;
   d["intervals"] = s.intervals;

@@ -16,9 +16,9 @@ namespace dronetwin::python {
 
 namespace {
 
-/// A 2-D float64 array of shape (n, cols), copied row by row into `rows`.
+/// A 2-D float64 array of shape (n, cols), copied row by row.
 template <class Row>
-std::vector<Row> rows_of(const py::handle obj, py::ssize_t cols, const char* what) {
+std::vector<Row> read_rows(const py::handle obj, py::ssize_t cols, const char* what) {
   const std::string expected = std::string("time_optimal_lap: ") + what +
                                ": expected a 2-D float64 array with " + std::to_string(cols) +
                                " columns, got " + describe_object(obj);
@@ -50,22 +50,6 @@ std::vector<double> column_of(const py::handle obj, const char* what) {
   return out;
 }
 
-py::array_t<double> matrix_of(const std::vector<StateVector>& rows) {
-  py::array_t<double> a({static_cast<py::ssize_t>(rows.size()), py::ssize_t{kStateSize}});
-  auto out = a.mutable_unchecked<2>();
-  for (std::size_t i = 0; i < rows.size(); ++i)
-    for (int j = 0; j < kStateSize; ++j) out(static_cast<py::ssize_t>(i), j) = rows[i][j];
-  return a;
-}
-
-py::array_t<double> matrix_of(const std::vector<RotorVector>& rows, int cols) {
-  py::array_t<double> a({static_cast<py::ssize_t>(rows.size()), py::ssize_t{cols}});
-  auto out = a.mutable_unchecked<2>();
-  for (std::size_t i = 0; i < rows.size(); ++i)
-    for (int j = 0; j < cols; ++j) out(static_cast<py::ssize_t>(i), j) = rows[i][j];
-  return a;
-}
-
 py::dict lap_dict(const TimeOptimalLap& lap, int num_rotors) {
   py::dict d;
   d["lap_time_s"] = lap.lap_time_s;
@@ -73,15 +57,16 @@ py::dict lap_dict(const TimeOptimalLap& lap, int num_rotors) {
       lap.segment_times_s.data(), static_cast<Eigen::Index>(lap.segment_times_s.size())));
   d["times_s"] = copy_of(Eigen::Map<const Eigen::VectorXd>(
       lap.times_s.data(), static_cast<Eigen::Index>(lap.times_s.size())));
-  d["states"] = matrix_of(lap.states);
-  d["rotor_speeds_rad_s"] = matrix_of(lap.rotor_speeds_rad_s, num_rotors);
+  d["states"] =
+      rows_of(lap.states.size(), kStateSize, [&](std::size_t k) { return lap.states[k]; });
+  d["rotor_speeds_rad_s"] = rows_of(lap.rotor_speeds_rad_s.size(), num_rotors,
+                                    [&](std::size_t k) { return lap.rotor_speeds_rad_s[k]; });
   py::list gate_nodes;
   for (int k : lap.gate_nodes) gate_nodes.append(k);
   d["gate_nodes"] = gate_nodes;
   d["max_violation"] = lap.max_violation;
   d["converged"] = lap.converged;
   d["warm_start_lap_time_s"] = lap.warm_start_lap_time_s;
-  d["time_scale"] = lap.time_scale;
   d["min_snap_lap_time_s"] = lap.warm_start.lap_time_s;
   d["min_snap_trajectory"] = lap.warm_start.trajectory;
   d["gate_margin_m"] = lap.gate_margin_m;
@@ -128,10 +113,10 @@ void bind_time_optimal(py::module_& pl) {
         FlownTrajectory flight;
         flight.times_s = column_of(flight_times_s, "flight_times_s");
         for (const Eigen::VectorXd& x :
-             rows_of<Eigen::VectorXd>(flight_states, kStateSize, "flight_states"))
+             read_rows<Eigen::VectorXd>(flight_states, kStateSize, "flight_states"))
           flight.states.push_back(x);
         flight.rotor_speeds_rad_s =
-            rows_of<RotorVector>(flight_rotor_speeds_rad_s, R, "flight_rotor_speeds_rad_s");
+            read_rows<RotorVector>(flight_rotor_speeds_rad_s, R, "flight_rotor_speeds_rad_s");
         const TimeOptimalLap lap = [&] {
           py::gil_scoped_release release;
           return solve_time_optimal_lap(track, *model, o, flight);

@@ -72,6 +72,18 @@ RotorVector to_rotor_vector(py::handle obj, int n, const char* what);
 py::array_t<double> view(double* data, py::ssize_t n, py::handle owner, bool writable);
 py::array_t<double> view(const double* data, py::ssize_t n, py::handle owner);
 
+/// A new (rows, width) numpy array whose row i is a copy of row(i) (anything indexable).
+template <class Row>
+py::array_t<double> rows_of(std::size_t rows, int width, Row&& row) {
+  py::array_t<double> a({static_cast<py::ssize_t>(rows), static_cast<py::ssize_t>(width)});
+  auto out = a.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < rows; ++i) {
+    const auto values = row(i);
+    for (int j = 0; j < width; ++j) out(static_cast<py::ssize_t>(i), j) = values[j];
+  }
+  return a;
+}
+
 /// A copy of a vector as a new numpy array (for computed values).
 template <class Vector>
 py::array_t<double> copy_of(const Vector& v) {

@@ -154,11 +154,7 @@ struct Shared {
 /// constraint() evaluates c alone for the violation check.
 class ConstraintCost : public ceres::CostFunction {
  public:
-  explicit ConstraintCost(const Shared& shared) : shared_(shared) {}
   virtual void constraint(double const* const* parameters, double* c) const = 0;
-
- protected:
-  const Shared& shared_;
 };
 
 /// x_{k+1} - Phi(x_k, u_k, T_j / n_j), scaled. Blocks: x_k (13), the controls v_k (4: u_k =
@@ -166,7 +162,7 @@ class ConstraintCost : public ceres::CostFunction {
 class DefectCost final : public ConstraintCost {
  public:
   DefectCost(const Shared& shared, int intervals_in_segment, double warm_time_s)
-      : ConstraintCost(shared), dt0_s_(warm_time_s / intervals_in_segment) {
+      : shared_(shared), dt0_s_(warm_time_s / intervals_in_segment) {
     set_num_residuals(kNx);
     *mutable_parameter_block_sizes() = {kNx, kControls, 1, kNx};
   }
@@ -211,6 +207,7 @@ class DefectCost final : public ConstraintCost {
   }
 
  private:
+  const Shared& shared_;
   double dt0_s_;  // the warm start's interval in this segment
 };
 
@@ -218,9 +215,8 @@ class DefectCost final : public ConstraintCost {
 /// the shrunk opening for every sigma. Blocks: x_k (13), sigma (2).
 class GateCost final : public ConstraintCost {
  public:
-  GateCost(const Shared& shared, const Gate& gate, double margin_m)
-      : ConstraintCost(shared),
-        center_(gate.center_m),
+  GateCost(const Gate& gate, double margin_m)
+      : center_(gate.center_m),
         half_width_axis_(gate.width_axis() * (0.5 * gate.width_m - margin_m)),
         half_height_axis_(gate.up_axis() * (0.5 * gate.height_m - margin_m)) {
     set_num_residuals(3);
@@ -258,7 +254,7 @@ class GateCost final : public ConstraintCost {
 /// Blocks: x_0, x_N.
 class PeriodicCost final : public ConstraintCost {
  public:
-  PeriodicCost(const Shared& shared, double quaternion_sign) : ConstraintCost(shared) {
+  explicit PeriodicCost(double quaternion_sign) {
     set_num_residuals(kNx);
     *mutable_parameter_block_sizes() = {kNx, kNx};
     for (int i = 0; i < kNx; ++i) {
@@ -291,8 +287,8 @@ class PeriodicCost final : public ConstraintCost {
 /// sum_j T0_j exp(tau_j) - target, s: the lap's time. Blocks: tau_j (1 each).
 class TotalTimeCost final : public ConstraintCost {
  public:
-  TotalTimeCost(const Shared& shared, std::vector<double> warm_times_s, const double* target_s)
-      : ConstraintCost(shared), warm_times_s_(std::move(warm_times_s)), target_s_(target_s) {
+  TotalTimeCost(std::vector<double> warm_times_s, const double* target_s)
+      : warm_times_s_(std::move(warm_times_s)), target_s_(target_s) {
     set_num_residuals(1);
     mutable_parameter_block_sizes()->assign(warm_times_s_.size(), 1);
   }
@@ -382,15 +378,12 @@ void validate_flown(const FlownTrajectory& f, int num_rotors) {
   require(n >= 2, "time-optimal lap: flown warm start: expected at least 2 samples, got ", n);
   require(f.states.size() == n && f.rotor_speeds_rad_s.size() == n,
           "time-optimal lap: flown warm start: expected ", n,
-          " states and rotor speeds (one per "
-          "time), got ",
-          f.states.size(), " and ", f.rotor_speeds_rad_s.size());
+          " states and rotor speeds (one per time), got ", f.states.size(), " and ",
+          f.rotor_speeds_rad_s.size());
   for (std::size_t i = 0; i < n; ++i) {
     require(std::isfinite(f.times_s[i]) && (i == 0 || f.times_s[i] > f.times_s[i - 1]),
             "time-optimal lap: flown warm start: times_s[", i,
-            "]: expected finite and above the "
-            "one before, got ",
-            f.times_s[i]);
+            "]: expected finite and above the one before, got ", f.times_s[i]);
     require(f.states[i].allFinite(), "time-optimal lap: flown warm start: states[", i,
             "]: expected finite numbers");
     require(f.rotor_speeds_rad_s[i].size() == num_rotors && f.rotor_speeds_rad_s[i].allFinite(),
@@ -526,10 +519,10 @@ class Recorder final : public LoopObserver {
 /// leaves out the drag terms, and a rotor speed held over an interval is not the flat one that
 /// varies within it. Below 1 the plan is faster than the rotors allow; the controller then
 /// saturates and cuts the corners, and its lap is a faster warm start.
-std::optional<FlownTrajectory> fly_min_snap(const Track& track, const VehicleModel& model,
+std::optional<FlownTrajectory> fly_min_snap(const Track& track,
+                                            const std::shared_ptr<const VehicleModel>& model,
                                             const TimeOptimalOptions& options,
                                             const planning::Trajectory& plan, double time_factor) {
-  const auto shared_model = std::make_shared<const VehicleModel>(model);
   SimConfig config;
   config.dt_s = 1e-3;
   config.integrator = Integrator::kRk4;
@@ -540,7 +533,7 @@ std::optional<FlownTrajectory> fly_min_snap(const Track& track, const VehicleMod
   // (docs/controllers.md).
   Se3Gains gains = Se3Gains::thesis();
   gains.attitude_d << 0.8, 0.8, 0.05;
-  gains.mass_kg = model.mass_kg();
+  gains.mass_kg = model->mass_kg();
   gains.gravity_m_s2 = options.gravity_m_s2;
   Se3Options se3;
   se3.gravity_compensation = true;
@@ -548,13 +541,13 @@ std::optional<FlownTrajectory> fly_min_snap(const Track& track, const VehicleMod
   se3.angular_feed_forward = true;
   se3.drag_feed_forward = true;
   const planning::Trajectory flown_plan = planning::time_scaled(plan, time_factor);
-  Simulator sim(shared_model, config);
+  Simulator sim(model, config);
   StateVector start = StateVector::Zero();
   const planning::FlatOutput first = flown_plan.at(0.0);
   start.segment<3>(state_index::kPosition) = first.position_m;
   start.segment<4>(state_index::kQuaternion) = math::from_euler(0.0, 0.0, first.yaw_rad);
-  sim.reset(start, model.hover_speeds_rad_s(options.gravity_m_s2));
-  Se3Controller controller(shared_model, gains, se3);
+  sim.reset(start, model->hover_speeds_rad_s(options.gravity_m_s2));
+  Se3Controller controller(model, gains, se3);
   const TrajectoryReference reference(flown_plan);
   ClosedLoop loop(sim, controller, reference, 1000.0);
   Recorder recorder(10);
@@ -600,16 +593,15 @@ TimeOptimalLap solve(const Track& track, const VehicleModel& model,
   if (given != nullptr) {
     flights.push_back(*given);
   } else {
+    const auto shared_model = std::make_shared<const VehicleModel>(model);
     for (const double factor : options.warm_start_time_factors)
       if (std::optional<FlownTrajectory> f =
-              fly_min_snap(track, model, options, plan.three_laps, factor))
+              fly_min_snap(track, shared_model, options, plan.three_laps, factor))
         flights.push_back(std::move(*f));
     require(!flights.empty(),
-            "time-optimal lap: the SE(3) controller flies no full lap of the "
-            "minimum-snap plan of '",
-            track.name,
-            "' at any of warm_start_time_factors; give a "
-            "flown warm start");
+            "time-optimal lap: the SE(3) controller flies no full lap of the minimum-snap plan "
+            "of '",
+            track.name, "' at any of warm_start_time_factors; give a flown warm start");
   }
   std::optional<TimeOptimalLap> best;
   int outer = 0, inner = 0;
@@ -736,7 +728,7 @@ std::optional<TimeOptimalLap> solve_from(const Track& track, const VehicleModel&
     // node, so its last gate goes on node 0.
     const auto at =
         g + 1 == track.gates.size() ? std::size_t{0} : static_cast<std::size_t>(out.gate_nodes[g]);
-    add_constraint(new GateCost(shared, track.gates[g], margin_m), {x[at].data(), sigma[g].data()});
+    add_constraint(new GateCost(track.gates[g], margin_m), {x[at].data(), sigma[g].data()});
   }
   {
     const double sign =
@@ -744,8 +736,7 @@ std::optional<TimeOptimalLap> solve_from(const Track& track, const VehicleModel&
                     .dot(x[static_cast<std::size_t>(N)].segment<4>(state_index::kQuaternion)) < 0.0
             ? -1.0
             : 1.0;
-    add_constraint(new PeriodicCost(shared, sign),
-                   {x[0].data(), x[static_cast<std::size_t>(N)].data()});
+    add_constraint(new PeriodicCost(sign), {x[0].data(), x[static_cast<std::size_t>(N)].data()});
   }
   for (auto& xk : x) problem.SetManifold(xk.data(), &state_manifold);
 
@@ -810,7 +801,7 @@ std::optional<TimeOptimalLap> solve_from(const Track& track, const VehicleModel&
   Solution best{x, v, tau, sigma};
   double hi = total_time(), lo = 0.0;
   double target_s = hi;
-  add_constraint(new TotalTimeCost(shared, T0, &target_s), [&] {
+  add_constraint(new TotalTimeCost(T0, &target_s), [&] {
     std::vector<double*> p;
     for (double& t : tau) p.push_back(&t);
     return p;
@@ -856,7 +847,6 @@ std::optional<TimeOptimalLap> solve_from(const Track& track, const VehicleModel&
   target_s = hi;
   out.max_violation = violation();
   out.converged = out.max_violation <= options.constraint_tolerance;
-  out.time_scale = hi / warm_total_s;
   out.lap_time_s = 0.0;
   out.segment_times_s.resize(T0.size());
   for (std::size_t j = 0; j < T0.size(); ++j) {

@@ -235,6 +235,30 @@ TEST(TimeOptimalLap, RefusesBadOptionsAndTracksByName) {
               solve_time_optimal_lap(circuit(), model, o);
             }).find("warm_start_time_factors[1]: expected in [0.1, 10], got 0"),
             std::string::npos);
+  // Each refusal of validate(), with the option's name and value.
+  const auto refused = [&](const TimeOptimalOptions& bad, const std::string& expected) {
+    EXPECT_NE(error_of([&] { solve_time_optimal_lap(circuit(), model, bad); }).find(expected),
+              std::string::npos)
+        << expected;
+  };
+  o = {};
+  o.gravity_m_s2 = 0.0;
+  refused(o, "gravity_m_s2: expected > 0, got 0");
+  o = {};
+  o.gate_margin_m = std::nan("");
+  refused(o, "gate_margin_m: expected finite, got nan");
+  o = {};
+  o.warm_start_rhos.clear();
+  refused(o, "warm_start_rhos: expected at least one");
+  o = {};
+  o.warm_start_time_factors.clear();
+  refused(o, "warm_start_time_factors: expected at least one");
+  o = {};
+  o.constraint_tolerance = -1.0;
+  refused(o, "constraint_tolerance: expected > 0, got -1");
+  o = {};
+  o.max_inner_iterations = 0;
+  refused(o, "max_outer_iterations and max_inner_iterations: expected >= 1, got 40 and 0");
   o = {};
   o.gate_margin_m = 0.8;
   EXPECT_NE(error_of([&] { solve_time_optimal_lap(circuit(), model, o); })
@@ -255,7 +279,12 @@ TEST(TimeOptimalLap, RefusesABadFlightByIndex) {
     f.states.push_back(hover);
     f.rotor_speeds_rad_s.push_back(speeds);
   }
-  FlownTrajectory bad = f;
+  FlownTrajectory bad;
+  EXPECT_NE(error_of([&] {
+              solve_time_optimal_lap(circuit(), model, o, bad);
+            }).find("flown warm start: expected at least 2 samples, got 0"),
+            std::string::npos);
+  bad = f;
   bad.times_s[2] = bad.times_s[1];
   EXPECT_NE(error_of([&] {
               solve_time_optimal_lap(circuit(), model, o, bad);

@@ -122,9 +122,8 @@ struct TimeOptimalLap {
   std::vector<int> gate_nodes;
   /// Largest constraint violation at the end (the scaled units of constraint_tolerance).
   double max_violation = 0.0;
-  /// The flown lap the solve started from (gate to gate, s), and lap_time_s over it.
+  /// The flown lap the solve started from (gate to gate, s).
   double warm_start_lap_time_s = 0.0;
-  double time_scale = 1.0;
   int outer_iterations = 0;
   int inner_iterations = 0;
   double solve_time_s = 0.0;
