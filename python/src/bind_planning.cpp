@@ -474,31 +474,45 @@ void bind_planning_module(py::module_& pl) {
 
   pl.def(
       "flat_state",
-      [](const FlatOutput& f, const ModelPtr& model, double gravity_m_s2) {
-        return planning::flat_state(f, model_of(model, "flat_state"), gravity_m_s2);
+      [](const FlatOutput& f, const ModelPtr& model, double gravity_m_s2, bool body_drag,
+         bool rotor_drag) {
+        return planning::flat_state(f, model_of(model, "flat_state"), gravity_m_s2,
+                                    planning::FlatDragTerms{body_drag, rotor_drag});
       },
       // 9.81: the C++ default of flat_state.
       py::arg("flat_output"), py::arg("model"), py::arg("gravity_m_s2") = 9.81,
-      "FlatState of a FlatOutput for `model` (gravity along -z, m/s^2). ValueError in free fall\n"
-      "or with the thrust along the heading.");
+      py::arg("body_drag") = false, py::arg("rotor_drag") = false,
+      "FlatState of a FlatOutput for `model` (gravity along -z, m/s^2), with the model's frame\n"
+      "drag and rotor drag when asked (docs/planning.md). ValueError in free fall, with the\n"
+      "thrust along the heading, or when the drag's fixed point does not converge.");
 
   py::class_<FeasibilityLimits>(pl, "FeasibilityLimits",
                                 "Limits of check_feasibility besides the rotor speed limits.")
-      .def(py::init([](double tilt, double rate, double gravity) {
+      .def(py::init([](double tilt, double rate, double gravity, bool body_drag, bool rotor_drag) {
              FeasibilityLimits l;
              l.max_tilt_rad = tilt;
              l.max_body_rate_rad_s = rate;
              l.gravity_m_s2 = gravity;
+             l.drag = {body_drag, rotor_drag};
              return l;
            }),
            py::arg("max_tilt_rad") = FeasibilityLimits{}.max_tilt_rad,
            py::arg("max_body_rate_rad_s") = FeasibilityLimits{}.max_body_rate_rad_s,
-           py::arg("gravity_m_s2") = FeasibilityLimits{}.gravity_m_s2)
+           py::arg("gravity_m_s2") = FeasibilityLimits{}.gravity_m_s2, py::arg("body_drag") = false,
+           py::arg("rotor_drag") = false)
       .def_readwrite("max_tilt_rad", &FeasibilityLimits::max_tilt_rad,
                      "Largest angle between body z and world z, rad.")
       .def_readwrite("max_body_rate_rad_s", &FeasibilityLimits::max_body_rate_rad_s,
                      "Largest |w_B|, rad/s.")
-      .def_readwrite("gravity_m_s2", &FeasibilityLimits::gravity_m_s2, "m/s^2");
+      .def_readwrite("gravity_m_s2", &FeasibilityLimits::gravity_m_s2, "m/s^2")
+      .def_property(
+          "body_drag", [](const FeasibilityLimits& l) { return l.drag.body_drag; },
+          [](FeasibilityLimits& l, bool on) { l.drag.body_drag = on; },
+          "The flat states checked include the model's frame drag.")
+      .def_property(
+          "rotor_drag", [](const FeasibilityLimits& l) { return l.drag.rotor_drag; },
+          [](FeasibilityLimits& l, bool on) { l.drag.rotor_drag = on; },
+          "The flat states checked include the model's rotor drag.");
 
   py::enum_<FeasibilityViolation>(pl, "FeasibilityViolation", "What made a trajectory infeasible.")
       .value("NONE", FeasibilityViolation::kNone)

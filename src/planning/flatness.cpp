@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/dynamics/body_drag.hpp"
+#include "dronetwin/dynamics/rotor.hpp"
 #include "dronetwin/model/allocation.hpp"
 
 namespace dronetwin::planning {
@@ -27,6 +29,74 @@ bool finite(const FlatOutput& f) {
          std::isfinite(f.yaw_acceleration_rad_s2);
 }
 
+// The header's (1)-(4) and their derivative for a thrust along `thrust_vector` (c z_B) with time
+// derivatives `d1` and `d2`: a + g e3, j and s without drag, alpha, alpha' and alpha'' of (5)
+// with it. thrust_per_mass_m_s2 = |thrust_vector|, its rate z_B . d1.
+FlatSingularity attitude_along(const Vec3& thrust_vector, const Vec3& d1, const Vec3& d2,
+                               const FlatOutput& f, FlatAttitude& out) {
+  const double c = thrust_vector.norm();
+  if (!(c >= kMinThrustPerMass_m_s2)) return FlatSingularity::kFreeFall;
+  const Vec3 z_B = thrust_vector / c;
+  const double cos_psi = std::cos(f.yaw_rad), sin_psi = std::sin(f.yaw_rad);
+  const Vec3 x_C(cos_psi, sin_psi, 0.0), y_C(-sin_psi, cos_psi, 0.0);
+  const Vec3 y_raw = z_B.cross(x_C);
+  const double heading_sine = y_raw.norm();  // = x_B . x_C, the denominator of (4)
+  if (!(heading_sine >= kMinHeadingSine)) return FlatSingularity::kThrustAlongHeading;
+  const Vec3 y_B = y_raw / heading_sine;
+  const Vec3 x_B = y_B.cross(z_B);
+
+  // Body rates, (3) and (4).
+  const Vec3& j = d1;
+  const double c_dot = z_B.dot(j);
+  const double p = -j.dot(y_B) / c, q_rate = j.dot(x_B) / c;
+  const double psi_dot = f.yaw_rate_rad_s, psi_ddot = f.yaw_acceleration_rad_s2;
+  const double r = (p * z_B.dot(x_C) + psi_dot * y_B.dot(y_C)) / heading_sine;
+  Mat3 R;
+  R.col(0) = x_B;
+  R.col(1) = y_B;
+  R.col(2) = z_B;
+  const Vec3 w_W = R * Vec3(p, q_rate, r);
+
+  // Angular accelerations: (1) twice differentiated, s = c'' z_B + 2 c' w x z_B
+  // + c (w' x z_B + w x (w x z_B)), projected on x_B and y_B; y_B . x_C = 0 twice differentiated,
+  // (w' x y_B + w x (w x y_B)) . x_C + 2 psi' (w x y_B) . y_C + psi'' y_B . y_C = 0, for w'_z.
+  const Vec3& s = d2;
+  const double a_x = r * q_rate - (s.dot(y_B) + 2.0 * c_dot * p) / c;
+  const double a_y = (s.dot(x_B) - 2.0 * c_dot * q_rate) / c - r * p;
+  const Vec3 w_x_y = w_W.cross(y_B);
+  const double a_z = (a_x * z_B.dot(x_C) + w_W.cross(w_x_y).dot(x_C) +
+                      2.0 * psi_dot * w_x_y.dot(y_C) + psi_ddot * y_B.dot(y_C)) /
+                     heading_sine;
+  out.R_WB = R;
+  out.angular_velocity_B_rad_s = Vec3(p, q_rate, r);
+  out.angular_acceleration_B_rad_s2 = Vec3(a_x, a_y, a_z);
+  out.thrust_per_mass_m_s2 = c;
+  out.thrust_per_mass_rate_m_s3 = c_dot;
+  return FlatSingularity::kNone;
+}
+
+// (5): the attitude under the linear drag `d` and a held force per mass `held_W` (the part of
+// the drag the linear form leaves out, its rates taken as zero).
+FlatSingularity attitude_with_drag(const FlatOutput& f, double g, const FlatDrag& d,
+                                   const Vec3& held_W, FlatAttitude& out) {
+  const double k = d.horizontal_per_s;
+  const Vec3& v = f.velocity_m_s;
+  const Vec3& a = f.acceleration_m_s2;
+  const Vec3 alpha = a + g * Vec3::UnitZ() + k * v - held_W;
+  FlatAttitude att;
+  const FlatSingularity singular =
+      attitude_along(alpha, f.jerk_m_s3 + k * a, f.snap_m_s4 + k * f.jerk_m_s3, f, att);
+  if (singular != FlatSingularity::kNone) return singular;
+  // c = |alpha| + (k_z - k) z_B . v, and its rate with z_B' = w x z_B.
+  const Vec3 z_B = att.R_WB.col(2);
+  const Vec3 w_W = att.R_WB * att.angular_velocity_B_rad_s;
+  const double anisotropy = d.vertical_per_s - k;
+  att.thrust_per_mass_m_s2 += anisotropy * z_B.dot(v);
+  att.thrust_per_mass_rate_m_s3 += anisotropy * (w_W.cross(z_B).dot(v) + z_B.dot(a));
+  out = att;
+  return FlatSingularity::kNone;
+}
+
 // Why the flat state is singular, as a violation with its value and threshold.
 struct Singularity {
   FeasibilityViolation kind = FeasibilityViolation::kNone;
@@ -34,34 +104,30 @@ struct Singularity {
   std::string message;
 };
 
-// The flat state of the header's equations (1)-(4) and their derivatives; `singular.kind` set
-// (and `out` incomplete) where they are undefined.
-void compute(const FlatOutput& f, const VehicleModel& model, double g, FlatState& out,
-             Singularity& singular) {
-  FlatAttitude att;
-  switch (flat_attitude(f, g, att)) {
-    case FlatSingularity::kNone:
-      break;
-    case FlatSingularity::kFreeFall: {
-      const double c = (f.acceleration_m_s2 + g * Vec3::UnitZ()).norm();
-      singular = {FeasibilityViolation::kSingular, c, kMinThrustPerMass_m_s2,
-                  detail::concat("zero thrust (free fall): |a + g e3| = ", c, " m/s^2 (a = ",
-                                 text(f.acceleration_m_s2), " m/s^2, g = ", g, " m/s^2), below ",
-                                 kMinThrustPerMass_m_s2, " m/s^2: the attitude is undefined")};
-      return;
-    }
-    case FlatSingularity::kThrustAlongHeading: {
-      const Vec3 z_B = (f.acceleration_m_s2 + g * Vec3::UnitZ()).normalized();
-      const Vec3 x_C(std::cos(f.yaw_rad), std::sin(f.yaw_rad), 0.0);
-      const double heading_sine = z_B.cross(x_C).norm();
-      singular = {FeasibilityViolation::kSingular, heading_sine, kMinHeadingSine,
-                  detail::concat("thrust direction z_B = ", text(z_B),
-                                 " parallel to the heading x_C = ", text(x_C), " (yaw ", f.yaw_rad,
-                                 " rad): |z_B x x_C| = ", heading_sine, ", below ", kMinHeadingSine,
-                                 ": the body x axis is undefined")};
-      return;
-    }
+// `kind` as a violation with its value, threshold and message; `thrust_vector` is c z_B, named
+// `name` in the message.
+Singularity describe(FlatSingularity kind, const Vec3& thrust_vector, const char* name,
+                     const FlatOutput& f, double g) {
+  if (kind == FlatSingularity::kFreeFall) {
+    const double c = thrust_vector.norm();
+    return {FeasibilityViolation::kSingular, c, kMinThrustPerMass_m_s2,
+            detail::concat("zero thrust (free fall): |", name, "| = ", c, " m/s^2 (a = ",
+                           text(f.acceleration_m_s2), " m/s^2, g = ", g, " m/s^2), below ",
+                           kMinThrustPerMass_m_s2, " m/s^2: the attitude is undefined")};
   }
+  const Vec3 z_B = thrust_vector.normalized();
+  const Vec3 x_C(std::cos(f.yaw_rad), std::sin(f.yaw_rad), 0.0);
+  const double heading_sine = z_B.cross(x_C).norm();
+  return {FeasibilityViolation::kSingular, heading_sine, kMinHeadingSine,
+          detail::concat("thrust direction z_B = ", text(z_B), " parallel to the heading x_C = ",
+                         text(x_C), " (yaw ", f.yaw_rad, " rad): |z_B x x_C| = ", heading_sine,
+                         ", below ", kMinHeadingSine, ": the body x axis is undefined")};
+}
+
+// The flat state of `att`: Euler's torques less the drag moment `drag_moment_B`, then the
+// allocation.
+void fill(const FlatAttitude& att, const Vec3& drag_moment_B, const VehicleModel& model,
+          FlatState& out) {
   out.R_WB = att.R_WB;
   const Eigen::Quaterniond q(out.R_WB);
   out.q_WB = Vec4(q.w(), q.x(), q.y(), q.z());
@@ -75,12 +141,87 @@ void compute(const FlatOutput& f, const VehicleModel& model, double g, FlatState
   out.thrust_per_mass_m_s2 = att.thrust_per_mass_m_s2;
   out.thrust_N = m * att.thrust_per_mass_m_s2;
   out.thrust_rate_N_s = m * att.thrust_per_mass_rate_m_s3;
-  out.torque_B_Nm = J * dw_B + w_B.cross(J * w_B);  // Euler's equation
+  out.torque_B_Nm = J * dw_B + w_B.cross(J * w_B) - drag_moment_B;  // Euler's equation
   out.generalized_force << out.thrust_N, out.torque_B_Nm;
   out.rotor_thrusts_N = model.thrusts_for(out.generalized_force);
   const AllocationResult a = allocate_with_saturation(model, out.generalized_force);
   out.rotor_speeds_rad_s = a.speeds_rad_s;
   out.allocation_saturated = a.saturated;
+}
+
+// The flat state with the model's drag terms (the header's (5)): a fixed point over the rotor
+// speeds (which set the rotor drag) and the held force (the drag the linear form leaves out).
+void compute_with_drag(const FlatOutput& f, const VehicleModel& model, double g,
+                       const FlatDragTerms& terms, FlatState& out, Singularity& singular) {
+  const double m = model.mass_kg();
+  const Mat3 A = terms.body_drag ? model.body_drag_Ns_per_m() : Mat3(Mat3::Zero());
+  // The force kernel's own drag maps of [v_B; w_B] (dynamics/body_drag.hpp, dynamics/rotor.hpp).
+  const Matrix6<double> frame_map = body_drag_map<double>(A);
+  GeneralizedForce hover = GeneralizedForce::Zero();
+  hover[0] = m * g;
+  RotorVector speeds = allocate_with_saturation(model, hover).speeds_rad_s;
+  Vec3 held_W = Vec3::Zero();
+  double speed_change = 0.0, held_change = 0.0;
+  for (int iteration = 0; iteration < kMaxFlatDragIterations; ++iteration) {
+    Matrix6<double> map = frame_map;
+    double rotor_drag_per_m_s = 0.0;  // sum_i C_D |w_i|
+    if (terms.rotor_drag)
+      for (int i = 0; i < model.num_rotors(); ++i) {
+        const RotorParams& r = model.rotor(i);
+        const double c_i = r.rotor_drag_coefficient * std::abs(speeds[i]);
+        rotor_drag_per_m_s += c_i;
+        map += c_i * rotor_drag_map<double>(r.position_m, r.axis);
+      }
+    const FlatDrag linear{(0.5 * (A(0, 0) + A(1, 1)) + rotor_drag_per_m_s) / m, A(2, 2) / m};
+    FlatAttitude att;
+    const FlatSingularity kind = attitude_with_drag(f, g, linear, held_W, att);
+    if (kind != FlatSingularity::kNone) {
+      const Vec3 alpha = f.acceleration_m_s2 + g * Vec3::UnitZ() +
+                         linear.horizontal_per_s * f.velocity_m_s - held_W;
+      singular = describe(kind, alpha, "a + g e3 + k v - F_held / m", f, g);
+      return;
+    }
+    const Mat3& R = att.R_WB;
+    const Vec3 v_B = R.transpose() * f.velocity_m_s;
+    Vector6<double> air_and_rate;
+    air_and_rate << v_B, att.angular_velocity_B_rad_s;
+    const Vector6<double> drag = map * air_and_rate;  // [F_B; M_B]
+    const Vec3 linear_B =
+        -m * Vec3(linear.horizontal_per_s, linear.horizontal_per_s, linear.vertical_per_s)
+                 .cwiseProduct(v_B);
+    const Vec3 next_held_W = R * (drag.head<3>() - linear_B) / m;
+    fill(att, drag.tail<3>(), model, out);
+    const int n = model.num_rotors();
+    speed_change = (out.rotor_speeds_rad_s.head(n) - speeds.head(n)).cwiseAbs().maxCoeff();
+    held_change = (next_held_W - held_W).cwiseAbs().maxCoeff();
+    const double speed_scale = std::max(1.0, speeds.head(n).cwiseAbs().maxCoeff());
+    const double force_scale = std::max(g, att.thrust_per_mass_m_s2);
+    if (speed_change <= 1e-12 * speed_scale && held_change <= 1e-13 * force_scale) return;
+    speeds = out.rotor_speeds_rad_s;
+    held_W = next_held_W;
+  }
+  singular = {
+      FeasibilityViolation::kSingular, speed_change, 0.0,
+      detail::concat(
+          "the drag fixed point did not converge in ", kMaxFlatDragIterations,
+          " iterations (last change: rotor speed ", speed_change, " rad/s, held force ",
+          held_change,
+          " m/s^2 per mass): the drag outside the closed form (anisotropic or non-diagonal frame "
+          "drag, the hubs' w x r) is too large for it")};
+}
+
+// The flat state of the header's equations (1)-(4) (with drag: (5)) and their derivatives;
+// `singular.kind` set (and `out` incomplete) where they are undefined.
+void compute(const FlatOutput& f, const VehicleModel& model, double g, const FlatDragTerms& drag,
+             FlatState& out, Singularity& singular) {
+  if (drag.body_drag || drag.rotor_drag) return compute_with_drag(f, model, g, drag, out, singular);
+  FlatAttitude att;
+  const FlatSingularity kind = flat_attitude(f, g, att);
+  if (kind != FlatSingularity::kNone) {
+    singular = describe(kind, f.acceleration_m_s2 + g * Vec3::UnitZ(), "a + g e3", f, g);
+    return;
+  }
+  fill(att, Vec3::Zero(), model, out);
 }
 
 void require_gravity(double g, const char* who) {
@@ -105,7 +246,7 @@ FeasibilityReport check_instant(const FlatOutput& f, const VehicleModel& model,
   FeasibilityReport r;
   FlatState s;
   Singularity singular;
-  compute(f, model, limits.gravity_m_s2, s, singular);
+  compute(f, model, limits.gravity_m_s2, limits.drag, s, singular);
   if (singular.kind != FeasibilityViolation::kNone) {
     r.violation = singular.kind;
     r.value = singular.value;
@@ -152,49 +293,16 @@ FeasibilityReport check_instant(const FlatOutput& f, const VehicleModel& model,
 
 FlatSingularity flat_attitude(const FlatOutput& f, double gravity_m_s2, FlatAttitude& out) {
   const Vec3 e3 = Vec3::UnitZ();
-  const Vec3 thrust_vector = f.acceleration_m_s2 + gravity_m_s2 * e3;  // c z_B, (1)
-  const double c = thrust_vector.norm();
-  if (!(c >= kMinThrustPerMass_m_s2)) return FlatSingularity::kFreeFall;
-  const Vec3 z_B = thrust_vector / c;
-  const double cos_psi = std::cos(f.yaw_rad), sin_psi = std::sin(f.yaw_rad);
-  const Vec3 x_C(cos_psi, sin_psi, 0.0), y_C(-sin_psi, cos_psi, 0.0);
-  const Vec3 y_raw = z_B.cross(x_C);
-  const double heading_sine = y_raw.norm();  // = x_B . x_C, the denominator of (4)
-  if (!(heading_sine >= kMinHeadingSine)) return FlatSingularity::kThrustAlongHeading;
-  const Vec3 y_B = y_raw / heading_sine;
-  const Vec3 x_B = y_B.cross(z_B);
-
-  // Body rates, (3) and (4).
-  const Vec3& j = f.jerk_m_s3;
-  const double c_dot = z_B.dot(j);
-  const double p = -j.dot(y_B) / c, q_rate = j.dot(x_B) / c;
-  const double psi_dot = f.yaw_rate_rad_s, psi_ddot = f.yaw_acceleration_rad_s2;
-  const double r = (p * z_B.dot(x_C) + psi_dot * y_B.dot(y_C)) / heading_sine;
-  Mat3 R;
-  R.col(0) = x_B;
-  R.col(1) = y_B;
-  R.col(2) = z_B;
-  const Vec3 w_W = R * Vec3(p, q_rate, r);
-
-  // Angular accelerations: (1) twice differentiated, s = c'' z_B + 2 c' w x z_B
-  // + c (w' x z_B + w x (w x z_B)), projected on x_B and y_B; y_B . x_C = 0 twice differentiated,
-  // (w' x y_B + w x (w x y_B)) . x_C + 2 psi' (w x y_B) . y_C + psi'' y_B . y_C = 0, for w'_z.
-  const Vec3& s = f.snap_m_s4;
-  const double a_x = r * q_rate - (s.dot(y_B) + 2.0 * c_dot * p) / c;
-  const double a_y = (s.dot(x_B) - 2.0 * c_dot * q_rate) / c - r * p;
-  const Vec3 w_x_y = w_W.cross(y_B);
-  const double a_z = (a_x * z_B.dot(x_C) + w_W.cross(w_x_y).dot(x_C) +
-                      2.0 * psi_dot * w_x_y.dot(y_C) + psi_ddot * y_B.dot(y_C)) /
-                     heading_sine;
-  out.R_WB = R;
-  out.angular_velocity_B_rad_s = Vec3(p, q_rate, r);
-  out.angular_acceleration_B_rad_s2 = Vec3(a_x, a_y, a_z);
-  out.thrust_per_mass_m_s2 = c;
-  out.thrust_per_mass_rate_m_s3 = c_dot;
-  return FlatSingularity::kNone;
+  return attitude_along(f.acceleration_m_s2 + gravity_m_s2 * e3, f.jerk_m_s3, f.snap_m_s4, f, out);
 }
 
-FlatState flat_state(const FlatOutput& f, const VehicleModel& model, double gravity_m_s2) {
+FlatSingularity flat_attitude(const FlatOutput& f, double gravity_m_s2, const FlatDrag& drag,
+                              FlatAttitude& out) {
+  return attitude_with_drag(f, gravity_m_s2, drag, Vec3::Zero(), out);
+}
+
+FlatState flat_state(const FlatOutput& f, const VehicleModel& model, double gravity_m_s2,
+                     const FlatDragTerms& drag) {
   require_gravity(gravity_m_s2, "flat_state");
   require(finite(f), "flat_state: the flat output has a non-finite number (position ",
           text(f.position_m), ", velocity ", text(f.velocity_m_s), ", acceleration ",
@@ -203,7 +311,7 @@ FlatState flat_state(const FlatOutput& f, const VehicleModel& model, double grav
           " rad/s^2)");
   FlatState out;
   Singularity singular;
-  compute(f, model, gravity_m_s2, out, singular);
+  compute(f, model, gravity_m_s2, drag, out, singular);
   require(singular.kind == FeasibilityViolation::kNone, "flat_state: ", singular.message);
   return out;
 }

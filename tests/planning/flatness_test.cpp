@@ -15,7 +15,9 @@
 #include <string>
 #include <vector>
 
+#include "dronetwin/config/model_loader.hpp"
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/dynamics/vehicle_dynamics.hpp"
 #include "dronetwin/math/quaternion.hpp"
 #include "dronetwin/model/allocation.hpp"
 #include "dronetwin/planning/flatness.hpp"
@@ -212,19 +214,24 @@ struct RoundTrip {
 // to its reference), no noise or wind. A step holds the rotor speeds it starts with; a reference
 // set before step k is reached at its end and held over step k + 1. The speeds are the flat ones
 // at the middle of the step they are held over (the mid-point rule, error O(dt^2)).
-RoundTrip fly_open_loop(const Trajectory& traj, double dt_s) {
+// With `simulated`, the simulator has those drag terms too, and `flat` says which the flat
+// state accounts for.
+RoundTrip fly_open_loop(const Trajectory& traj, double dt_s, FlatDragTerms simulated = {},
+                        FlatDragTerms flat = {}) {
   const auto model = qdrone2();
   SimConfig cfg;
   cfg.dt_s = dt_s;
   cfg.disturbances = DisturbanceSwitches::none();
+  cfg.disturbances.body_drag = simulated.body_drag;
+  cfg.disturbances.rotor_drag = simulated.rotor_drag;
   cfg.motor_dynamics = false;
   Simulator sim(model, cfg);
   const auto speeds_at = [&](double t) {
-    const FlatState s = flat_state(traj.at(t), *model);
+    const FlatState s = flat_state(traj.at(t), *model, kG, flat);
     EXPECT_FALSE(s.allocation_saturated) << "t = " << t;
     return s.rotor_speeds_rad_s;
   };
-  const FlatState s0 = flat_state(traj.at(0.0), *model);
+  const FlatState s0 = flat_state(traj.at(0.0), *model, kG, flat);
   StateVector x0;
   x0 << traj.at(0.0).position_m, traj.at(0.0).velocity_m_s, s0.q_WB, s0.angular_velocity_B_rad_s;
   sim.reset(x0, speeds_at(0.5 * dt_s));
@@ -237,7 +244,7 @@ RoundTrip fly_open_loop(const Trajectory& traj, double dt_s) {
     const StateVector& x = sim.state();
     r.max_position_error_m =
         std::max(r.max_position_error_m, (x.segment<3>(0) - traj.at(t).position_m).norm());
-    const Mat3 R_err = flat_state(traj.at(t), *model).R_WB.transpose() *
+    const Mat3 R_err = flat_state(traj.at(t), *model, kG, flat).R_WB.transpose() *
                        math::rotation_matrix<double>(x.segment<4>(6));
     r.max_attitude_error_rad = std::max(
         r.max_attitude_error_rad, std::acos(std::clamp(0.5 * (R_err.trace() - 1.0), -1.0, 1.0)));
@@ -287,6 +294,153 @@ TEST(FlatState, SimulatorFlownOnFlatRotorSpeedsFollowsTheTrajectory) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// 3b. Drag (the header's (5)).
+
+// sine_flat's position at lambda t (its path flown lambda times faster) at a constant yaw (the
+// QDrone2's yaw authority is small).
+FlatOutput sine_flat_faster(double t, double lambda) {
+  FlatOutput f = sine_flat(lambda * t);
+  f.velocity_m_s *= lambda;
+  f.acceleration_m_s2 *= lambda * lambda;
+  f.jerk_m_s3 *= std::pow(lambda, 3);
+  f.snap_m_s4 *= std::pow(lambda, 4);
+  f.yaw_rad = 0.5;
+  f.yaw_rate_rad_s = 0.0;
+  f.yaw_acceleration_rad_s2 = 0.0;
+  return f;
+}
+
+TEST(FlatDrag, ZeroDragGivesTheDragFreeAttitudeBitwise) {
+  for (double t = 0.0; t < 8.0; t += 0.37) {
+    FlatAttitude plain, zero;
+    ASSERT_EQ(flat_attitude(sine_flat(t), kG, plain), FlatSingularity::kNone);
+    ASSERT_EQ(flat_attitude(sine_flat(t), kG, FlatDrag{}, zero), FlatSingularity::kNone);
+    EXPECT_EQ(plain.R_WB, zero.R_WB);
+    EXPECT_EQ(plain.angular_velocity_B_rad_s, zero.angular_velocity_B_rad_s);
+    EXPECT_EQ(plain.angular_acceleration_B_rad_s2, zero.angular_acceleration_B_rad_s2);
+    EXPECT_EQ(plain.thrust_per_mass_m_s2, zero.thrust_per_mass_m_s2);
+    EXPECT_EQ(plain.thrust_per_mass_rate_m_s3, zero.thrust_per_mass_rate_m_s3);
+  }
+}
+
+// At every instant the flat state with drag balances the simulator's own forces: put the vehicle
+// in the flat state with the flat rotor speeds, and the force kernel's state derivative is the
+// path's acceleration and the flat angular acceleration, to round-off. Independent of the flat
+// model's derivation: the kernel computes the drag from its own maps.
+TEST(FlatDrag, FlatStateBalancesTheSimulatorsForcesAtEveryInstant) {
+  const auto model = qdrone2();
+  for (const FlatDragTerms terms :
+       {FlatDragTerms{true, false}, FlatDragTerms{false, true}, FlatDragTerms{true, true}}) {
+    DisturbanceSwitches sw = DisturbanceSwitches::none();
+    sw.body_drag = terms.body_drag;
+    sw.rotor_drag = terms.rotor_drag;
+    double largest_drag_m_s2 = 0.0;
+    for (double t = 0.0; t < 4.0; t += 0.13) {
+      SCOPED_TRACE(t);
+      const FlatOutput f = sine_flat_faster(t, 2.0);  // up to ~2.1 m/s and ~5.4 m/s^2
+      const FlatState s = flat_state(f, *model, kG, terms);
+      ASSERT_FALSE(s.allocation_saturated) << s.rotor_thrusts_N.head(4).transpose();
+      StateVector x;
+      x << f.position_m, f.velocity_m_s, s.q_WB, s.angular_velocity_B_rad_s;
+      const StateVector xdot = state_derivative(*model, sw, Environment{}, x, s.rotor_speeds_rad_s);
+      EXPECT_LT((xdot.segment<3>(state_index::kVelocity) - f.acceleration_m_s2).norm(), 1e-11);
+      EXPECT_LT(
+          (xdot.segment<3>(state_index::kAngularVelocity) - s.angular_acceleration_B_rad_s2).norm(),
+          1e-9);
+      // The drag-free flat state does not balance them (the case is not trivial).
+      const FlatState plain = flat_state(f, *model, kG);
+      StateVector x_plain;
+      x_plain << f.position_m, f.velocity_m_s, plain.q_WB, plain.angular_velocity_B_rad_s;
+      const StateVector xdot_plain =
+          state_derivative(*model, sw, Environment{}, x_plain, plain.rotor_speeds_rad_s);
+      largest_drag_m_s2 =
+          std::max(largest_drag_m_s2,
+                   (xdot_plain.segment<3>(state_index::kVelocity) - f.acceleration_m_s2).norm());
+    }
+    std::cout << "body drag " << terms.body_drag << ", rotor drag " << terms.rotor_drag
+              << ": the drag-free flat state is off by up to " << largest_drag_m_s2 << " m/s^2\n";
+    EXPECT_GT(largest_drag_m_s2, 0.3);
+  }
+}
+
+// With frame drag alone the linear form is the model's (A diagonal, A_xx = A_yy), so the rates,
+// angular accelerations and thrust rate are exact: central differences as in the drag-free test,
+// whose tolerances scale with the third derivatives (2^3 on a path flown twice as fast) and the
+// fourth (2^4).
+TEST(FlatDrag, FrameDragRatesMatchFiniteDifferencesOfTheAttitude) {
+  const auto model = qdrone2();
+  const FlatDragTerms frame{true, false};
+  const double h = 1e-4;
+  const auto state = [&](double time) {
+    return flat_state(sine_flat_faster(time, 2.0), *model, kG, frame);
+  };
+  for (double t = 0.0; t < 4.0; t += 0.19) {
+    SCOPED_TRACE(t);
+    const auto rates_fd = [&](double time) {
+      return body_rates_fd(state(time - h).R_WB, state(time).R_WB, state(time + h).R_WB, h);
+    };
+    const FlatState s = state(t);
+    EXPECT_LT((s.angular_velocity_B_rad_s - rates_fd(t)).norm(), 8e-7);
+    const Vec3 dw_fd = (rates_fd(t + h) - rates_fd(t - h)) / (2.0 * h);
+    EXPECT_LT((s.angular_acceleration_B_rad_s2 - dw_fd).norm(), 16e-5);
+    // A tenth of the step for the thrust: its third derivative is large, its rounding small.
+    const double h_T = h / 10.0;
+    EXPECT_NEAR(s.thrust_rate_N_s,
+                (state(t + h_T).thrust_N - state(t - h_T).thrust_N) / (2.0 * h_T), 1e-7);
+    // Drag tilts the vehicle against the velocity: the attitude differs from the drag-free one.
+    const FlatState plain = flat_state(sine_flat_faster(t, 2.0), *model, kG);
+    if (sine_flat_faster(t, 2.0).velocity_m_s.norm() > 1.0) {
+      EXPECT_GT((s.R_WB - plain.R_WB).norm(), 1e-3);
+    }
+  }
+}
+
+// Open loop through the simulator with frame drag: the drag-aware rotor speeds follow the path up
+// to the mid-point rule's O(dt^2) (halving dt quarters the error: no model mismatch); the
+// drag-free speeds drift by far more, and halving dt does not help. With rotor drag as well the
+// flat rates leave out the rates of k and of the held force, so the drag-aware error does not
+// vanish with dt, but it stays below the drag-free one.
+TEST(FlatDrag, SimulatorWithDragFlownOnDragAwareRotorSpeedsFollowsTheTrajectory) {
+  const Trajectory traj = gentle_trajectory();
+  const double dt = 1e-3;
+  const FlatDragTerms frame{true, false}, both{true, true}, none{};
+  const RoundTrip fine = fly_open_loop(traj, dt, frame, frame);
+  const RoundTrip coarse = fly_open_loop(traj, 2 * dt, frame, frame);
+  const RoundTrip blind = fly_open_loop(traj, dt, frame, none);
+  const RoundTrip blind_coarse = fly_open_loop(traj, 2 * dt, frame, none);
+  std::cout << "frame drag: drag-aware " << fine.max_position_error_m << " m (dt " << dt << "), "
+            << coarse.max_position_error_m << " m (dt " << 2 * dt << "); drag-free "
+            << blind.max_position_error_m << " m, " << blind_coarse.max_position_error_m << " m\n";
+  const double ratio = coarse.max_position_error_m / fine.max_position_error_m;
+  EXPECT_GT(ratio, 3.0);
+  EXPECT_LT(ratio, 5.0);
+  EXPECT_GT(blind.max_position_error_m, 100.0 * fine.max_position_error_m);
+  EXPECT_LT(blind_coarse.max_position_error_m / blind.max_position_error_m, 1.1);
+  const RoundTrip with_rotor = fly_open_loop(traj, dt, both, both);
+  const RoundTrip with_rotor_blind = fly_open_loop(traj, dt, both, none);
+  std::cout << "frame and rotor drag: drag-aware " << with_rotor.max_position_error_m
+            << " m, attitude " << with_rotor.max_attitude_error_rad << " rad; drag-free "
+            << with_rotor_blind.max_position_error_m << " m\n";
+  EXPECT_LT(with_rotor.max_position_error_m, 0.1 * with_rotor_blind.max_position_error_m);
+}
+
+TEST(FlatDrag, DragTooLargeForTheThrustIsNamed) {
+  // Frame drag 1000 N s/m along x and 10 along y: the anisotropy, held as a force, outweighs the
+  // closed form it corrects, and the fixed point does not settle.
+  VehicleSpec spec = load_vehicle_spec(test::source_path("models/qdrone2.yaml"));
+  spec.body_drag_Ns_per_m = Vec3(1000.0, 10.0, 0.25).asDiagonal();
+  const VehicleModel heavy_drag(spec);
+  FlatOutput f = at_rest(Vec3(0, 0, 1), 0.0);
+  f.velocity_m_s = Vec3(2.0, 2.0, 0.0);
+  const std::string message = error_of([&] {
+    (void)flat_state(f, heavy_drag, kG, FlatDragTerms{true, false});
+  });
+  expect_message(message, "flat_state: the drag fixed point did not converge in 100 iterations");
+  expect_message(message, "rotor speed ");
+  std::cout << message << "\n";
+}
+
+// ---------------------------------------------------------------------------------------------
 // 4. Feasibility and time scaling.
 
 // The first sample (t = 0, dt, ... and the end) at which a limit is crossed, found here by
@@ -310,7 +464,7 @@ BruteForce first_violation(const Trajectory& traj, const VehicleModel& model,
     b.time_s = t;
     FlatState s;
     try {
-      s = flat_state(traj.at(t), model, limits.gravity_m_s2);
+      s = flat_state(traj.at(t), model, limits.gravity_m_s2, limits.drag);
     } catch (const InvalidArgument&) {
       b.violation = FeasibilityViolation::kSingular;
       return b;
@@ -397,6 +551,11 @@ TEST(Feasibility, FirstInfeasibleInstantMatchesABruteForceScan) {
   EXPECT_EQ(r.violation, FeasibilityViolation::kRotorSpeedAboveMax);
   EXPECT_GT(r.value, model->rotor(r.rotor).max_speed_rad_s);
   EXPECT_EQ(r.limit, model->rotor(r.rotor).max_speed_rad_s);
+  // With the model's drag the climb needs more thrust, so the first violation comes no later.
+  FeasibilityLimits with_drag = limits;
+  with_drag.drag = {true, true};
+  expect_same_first_violation(up, *model, with_drag, 0.005);
+  EXPECT_LE(check_feasibility(up, *model, with_drag, 0.005).time_s, r.time_s);
   // The gentle trajectory passes, every sample checked (0, 0.01, ..., 2 s).
   const FeasibilityReport ok = check_feasibility(gentle_trajectory(), *model, {}, 0.01);
   EXPECT_TRUE(ok.feasible) << ok.message;

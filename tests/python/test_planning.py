@@ -224,6 +224,29 @@ def test_flat_state_at_hover_is_the_weight_and_the_hover_rotor_speeds(qdrone2):
         assert s.rotor_thrusts_N.sum() == pytest.approx(m * G, rel=1e-12)
 
 
+def test_steady_flight_against_frame_drag_tilts_by_atan_of_drag_over_weight(qdrone2):
+    # At a constant velocity u along +x the frame drag -A v_B, the thrust and the weight balance in
+    # the body frame: along x, A_xx u cos(theta) = m g sin(theta); along z, T = m g cos(theta)
+    # + A_zz u sin(theta).
+    m = qdrone2.mass_kg
+    A = qdrone2.body_drag_Ns_per_m
+    for u in (0.5, 3.0, 8.0):
+        f = pl.FlatOutput(position_m=[0.0, 0.0, 2.0], velocity_m_s=[u, 0.0, 0.0])
+        s = pl.flat_state(f, qdrone2, body_drag=True)
+        theta = math.atan(A[0, 0] * u / (m * G))
+        np.testing.assert_allclose(s.q_WB, [math.cos(theta / 2), 0.0, math.sin(theta / 2), 0.0],
+                                   atol=1e-14)
+        assert s.thrust_N == pytest.approx(m * G * math.cos(theta) + A[2, 2] * u * math.sin(theta),
+                                           rel=1e-13)
+        # Without drag the same flat output is a level hover at the weight.
+        assert pl.flat_state(f, qdrone2).thrust_N == pytest.approx(m * G, rel=1e-14)
+        # Rotor drag tilts it further (it adds to the frame's in-plane drag).
+        both = pl.flat_state(f, qdrone2, body_drag=True, rotor_drag=True)
+        assert math.atan2(both.R_WB[0, 2], both.R_WB[2, 2]) > theta
+    limits = pl.FeasibilityLimits(body_drag=True, rotor_drag=True)
+    assert limits.body_drag and limits.rotor_drag
+
+
 def test_constant_acceleration_tilts_by_atan_of_a_over_g(qdrone2):
     m = qdrone2.mass_kg
     a = 3.0

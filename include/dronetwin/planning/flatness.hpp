@@ -7,11 +7,11 @@
 //   const FeasibilityReport r = check_feasibility(traj, model, limits, 0.01);
 //   if (!r.feasible) traj = time_scaled(traj, feasible_time_scale(traj, model, limits, 0.01));
 //
-// Model (first cut): a rigid body with the collective thrust along body z, gravity, and the
-// rotor thrusts' moments of the allocation matrix (thrust and yaw reaction, Eq. 2.30); no
-// drag, ground effect, drag or rolling moment, gyroscopic moment or motor lag. The simulator
-// flies the same model with DisturbanceSwitches::none() and motor_dynamics off. The flatness of
-// the drag terms is a later step. Equations (world z up, g_W = -g e3, R = R_WB = [x_B y_B z_B]):
+// Model: a rigid body with the collective thrust along body z, gravity, and the rotor thrusts'
+// moments of the allocation matrix (thrust and yaw reaction, Eq. 2.30); no ground effect, drag
+// or rolling moment, gyroscopic moment or motor lag. Drag (FlatDragTerms) is optional; without
+// it the simulator flies the same model with DisturbanceSwitches::none() and motor_dynamics
+// off. Equations (world z up, g_W = -g e3, R = R_WB = [x_B y_B z_B]):
 //   c z_B = a + g e3,  c = |a + g e3|                (thrust per mass along body z)     (1)
 //   x_C = [cos psi, sin psi, 0],  y_B = z_B x x_C / |z_B x x_C|,  x_B = y_B x z_B        (2)
 //   c' = z_B . j;  q = (j . x_B) / c;  p = -(j . y_B) / c                                 (3)
@@ -21,6 +21,22 @@
 // differentiates y_B . x_C = 0 once. The angular accelerations differentiate (1) and (2) once
 // more (flatness.cpp). Torques by Euler's equation tau = J w' + w x J w (docs/model.md), then
 // [c m, tau] goes through the thrust-first allocation (model/allocation.hpp).
+//
+// Drag (Faessler, Franchi & Scaramuzza, RA-L 2018): a linear drag F_D = -m R diag(k, k, k_z) R^T v
+// (per mass, 1/s) keeps the vehicle flat. x_B and y_B are then normal to
+//   alpha = a + g e3 + k v,  so z_B = alpha / |alpha|,  c = |alpha| + (k_z - k) z_B . v,      (5)
+// and (3), (4) and their derivative hold with alpha, alpha' = j + k a and alpha'' = s + k j in
+// place of a + g e3, j and s. The model's frame drag (Eq. 2.32, F_A = -A v) is of that form when A
+// is diagonal with A_xx = A_yy; its rotor drag (-C_D |w_i| times the hub's in-plane air velocity)
+// adds sum_i C_D |w_i| / m to k for rotors along body z. flat_state() solves (5) with k at the
+// state's own rotor speeds, and puts what the linear form leaves out (an anisotropic or
+// non-diagonal A, the hubs' w x r_i, tilted rotor planes) into alpha as a force held fixed,
+// iterating to a fixed point; so the thrust and attitude balance the simulator's force to
+// round-off. Exact throughout for frame drag alone. With rotor drag, k and the held force change
+// along the path and their rates are not in (3)-(4): they need the rotor speeds' rates, i.e. the
+// torques' rates and the angular jerk, which is why the model with rotor drag is not flat
+// (docs/planning.md measures what that leaves). The drag moments (the hub forces' r_i x F) join
+// Euler's torques.
 //
 // Trap: yaw here is the heading of (2), not the ZYX yaw of math::to_euler; the two agree when
 // the vehicle is level. Singular: zero thrust (free fall, c = 0) and a thrust direction parallel
@@ -43,6 +59,22 @@ inline constexpr double kMinThrustPerMass_m_s2 = 1e-6;
 /// Below this |z_B x x_C| the body y axis (2) is undefined: thrust along the heading.
 inline constexpr double kMinHeadingSine = 1e-6;
 
+/// The linear drag of (5), per mass: F_D = -m R diag(k, k, k_z) R^T v.
+struct FlatDrag {
+  double horizontal_per_s = 0.0;  ///< k, along body x and y, 1/s
+  double vertical_per_s = 0.0;    ///< k_z, along body z, 1/s
+};
+
+/// Which of the model's drag terms (Eq. 2.32, still air) flat_state() includes.
+struct FlatDragTerms {
+  bool body_drag = false;   ///< the frame's F_A = -A v (VehicleModel::body_drag_Ns_per_m)
+  bool rotor_drag = false;  ///< each rotor's -C_D |w_i| v_perp at its hub, and its moment
+};
+
+/// At most this many fixed-point iterations of flat_state() with drag (it converges in a handful:
+/// the held force is a small part of the drag).
+inline constexpr int kMaxFlatDragIterations = 100;
+
 /// Everything the flat outputs fix, for the rigid-body model above.
 struct FlatState {
   /// Attitude q_WB (w, x, y, z), w >= 0, and its rotation matrix R_WB (v_W = R v_B).
@@ -50,11 +82,13 @@ struct FlatState {
   Mat3 R_WB = Mat3::Identity();
   Vec3 angular_velocity_B_rad_s = Vec3::Zero();
   Vec3 angular_acceleration_B_rad_s2 = Vec3::Zero();
-  /// Collective thrust per mass c = |a + g e3| (m/s^2), the thrust m c (N) and its rate (N/s).
+  /// Collective thrust per mass c = |a + g e3| (with drag: (5)), m/s^2; the thrust m c (N) and
+  /// its rate (N/s).
   double thrust_per_mass_m_s2 = 0.0;
   double thrust_N = 0.0;
   double thrust_rate_N_s = 0.0;
-  /// Body torques tau = J w' + w x J w, N m.
+  /// Body torques tau = J w' + w x J w (with drag: minus the drag moments), N m: what the
+  /// rotor thrusts must give.
   Vec3 torque_B_Nm = Vec3::Zero();
   /// [thrust_N, torque_B_Nm]: the input of the allocation.
   GeneralizedForce generalized_force = GeneralizedForce::Zero();
@@ -91,11 +125,18 @@ enum class FlatSingularity {
 /// checked answer.
 FlatSingularity flat_attitude(const FlatOutput& f, double gravity_m_s2, FlatAttitude& out);
 
+/// The same under the linear drag `drag` ((5); zero drag gives the same bits as above).
+/// kFreeFall when |alpha| is below kMinThrustPerMass_m_s2.
+FlatSingularity flat_attitude(const FlatOutput& f, double gravity_m_s2, const FlatDrag& drag,
+                              FlatAttitude& out);
+
 /// The flat state for flat outputs `f` (gravity g along -z, m/s^2). Throws InvalidArgument on a
 /// non-finite number in `f`, a gravity that is negative or not finite, zero thrust (|a + g e3|
 /// below kMinThrustPerMass_m_s2: free fall) or a thrust direction parallel to the heading,
-/// naming the value.
-FlatState flat_state(const FlatOutput& f, const VehicleModel& model, double gravity_m_s2 = 9.81);
+/// naming the value. With `drag`, the model's drag terms (see the top of this file); then also
+/// when the fixed point does not converge in kMaxFlatDragIterations.
+FlatState flat_state(const FlatOutput& f, const VehicleModel& model, double gravity_m_s2 = 9.81,
+                     const FlatDragTerms& drag = {});
 
 /// What a trajectory must stay within besides the model's rotor speed limits.
 struct FeasibilityLimits {
@@ -104,6 +145,8 @@ struct FeasibilityLimits {
   /// Largest body rate |w_B|, rad/s.
   double max_body_rate_rad_s = 10.0;
   double gravity_m_s2 = 9.81;
+  /// Not a limit: the drag terms of the flat states checked (flat_state()).
+  FlatDragTerms drag{};
 };
 
 enum class FeasibilityViolation {
