@@ -458,7 +458,7 @@ void bind_planning_module(py::module_& pl) {
           "Rate of the collective thrust, N/s.")
       .def_property_readonly(
           "torque_B_Nm", [](const FlatState& s) { return Vec3(s.torque_B_Nm); },
-          "Body torques J w' + w x J w, N m.")
+          "Body torques the rotors give: J w' + w x J w (less the drag moments with drag), N m.")
       .def_property_readonly(
           "generalized_force", [](const FlatState& s) { return Vec4(s.generalized_force); },
           "[thrust_N, torque_B_Nm], the allocation's input.")
