@@ -85,7 +85,8 @@ void bind_time_optimal(py::module_& pl) {
       [](const Track& track, const std::shared_ptr<VehicleModel>& model, int intervals,
          int substeps, double gate_margin_m, std::vector<double> warm_start_time_factors,
          int max_outer_iterations, int max_inner_iterations, const py::object& flight_times_s,
-         const py::object& flight_states, const py::object& flight_rotor_speeds_rad_s) {
+         const py::object& flight_states, const py::object& flight_rotor_speeds_rad_s,
+         std::vector<int> intervals_per_segment) {
         if (!model)
           throw py::value_error("time_optimal_lap: model: expected a VehicleModel, got None");
         TimeOptimalOptions o;
@@ -95,6 +96,7 @@ void bind_time_optimal(py::module_& pl) {
         o.warm_start_time_factors = std::move(warm_start_time_factors);
         o.max_outer_iterations = max_outer_iterations;
         o.max_inner_iterations = max_inner_iterations;
+        o.intervals_per_segment = std::move(intervals_per_segment);
         const int R = model->num_rotors();
         const int given = static_cast<int>(!flight_times_s.is_none()) +
                           static_cast<int>(!flight_states.is_none()) +
@@ -130,12 +132,16 @@ void bind_time_optimal(py::module_& pl) {
       py::arg("max_inner_iterations") = defaults.max_inner_iterations,
       py::arg("flight_times_s") = py::none(), py::arg("flight_states") = py::none(),
       py::arg("flight_rotor_speeds_rad_s") = py::none(),
+      py::arg("intervals_per_segment") = std::vector<int>{},
       "The time-optimal flying lap of a closed track within the model's rotor-speed limits\n"
       "(docs/planning.md): multiple shooting over the full force model on Ceres, warm-started\n"
       "from the minimum-snap plan flown by SE(3) at each of warm_start_time_factors, or from a\n"
       "recorded flight (flight_times_s (n,), flight_states (n, 13), flight_rotor_speeds_rad_s\n"
       "(n, rotors), e.g. a policy's episode). gate_margin_m < 0: the collision shape's\n"
-      "bounding radius. Returns a dict: lap_time_s, segment_times_s, times_s (N+1,),\n"
+      "bounding radius. intervals_per_segment (one count per gate, the segment ending at\n"
+      "it, from the last gate to the first) replaces intervals, e.g. a lap's own grid\n"
+      "np.diff([0, *lap['gate_nodes']]) to re-solve from it. Returns a dict: lap_time_s, "
+      "segment_times_s, times_s (N+1,),\n"
       "states (N+1, 13), rotor_speeds_rad_s (N, rotors; held from node k to k+1), gate_nodes,\n"
       "max_violation, converged, warm_start_lap_time_s, min_snap_lap_time_s,\n"
       "min_snap_trajectory, gate_margin_m, iterations and solve_time_s. GIL released.");

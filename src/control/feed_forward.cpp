@@ -1,11 +1,5 @@
 #include "dronetwin/control/feed_forward.hpp"
 
-#include <cmath>
-
-#include "dronetwin/dynamics/body_drag.hpp"
-#include "dronetwin/dynamics/rotor.hpp"
-#include "dronetwin/model/allocation.hpp"
-
 namespace dronetwin {
 
 planning::FlatOutput flat_output(const ReferencePoint& reference) {
@@ -31,27 +25,21 @@ bool reference_flat_attitude(const ReferencePoint& reference, double gravity_m_s
   return true;
 }
 
-Vec3 flat_drag_force_W(const ReferencePoint& reference, const planning::FlatAttitude& attitude,
-                       const VehicleModel& model) {
-  // Eq. 2.32 in still air on the flat state, through the force kernel's own linear drag maps
-  // (dynamics/body_drag.hpp, dynamics/rotor.hpp) of [v_B; w_B]: the frame's, and each rotor's
-  // times C_D |w_i| at the speeds the allocation gives for the flat thrust and torques.
-  const Mat3& R = attitude.R_WB;
-  const Vec3& w = attitude.angular_velocity_B_rad_s;
-  const Mat3& J = model.inertia_kgm2();
-  GeneralizedForce u;
-  u << model.mass_kg() * attitude.thrust_per_mass_m_s2,
-      J * attitude.angular_acceleration_B_rad_s2 + w.cross(J * w);
-  const RotorVector speeds = allocate_with_saturation(model, u).speeds_rad_s;
-  Matrix6<double> drag_map = body_drag_map<double>(model.body_drag_Ns_per_m());
-  for (int i = 0; i < model.num_rotors(); ++i) {
-    const RotorParams& r = model.rotor(i);
-    drag_map += r.rotor_drag_coefficient * std::abs(speeds[i]) *
-                rotor_drag_map<double>(r.position_m, r.axis);
-  }
-  Vector6<double> air_and_rate;
-  air_and_rate << R.transpose() * reference.velocity_m_s, w;
-  return R * (drag_map * air_and_rate).head<3>();
+bool reference_flat_attitude_with_drag(const ReferencePoint& reference, double gravity_m_s2,
+                                       const VehicleModel& model, planning::FlatAttitude& out,
+                                       Vec3& drag_force_W) {
+  planning::FlatState s;
+  if (!planning::try_flat_state(flat_output(reference), model, gravity_m_s2, {true, true}, s))
+    return false;
+  out.R_WB = s.R_WB;
+  out.angular_velocity_B_rad_s = s.angular_velocity_B_rad_s;
+  out.angular_acceleration_B_rad_s2 = s.angular_acceleration_B_rad_s2;
+  out.thrust_per_mass_m_s2 = s.thrust_per_mass_m_s2;
+  out.thrust_per_mass_rate_m_s3 = s.thrust_rate_N_s / model.mass_kg();
+  // m a = T z_B + m g_W + F_drag.
+  drag_force_W = model.mass_kg() * (reference.acceleration_m_s2 + gravity_m_s2 * Vec3::UnitZ()) -
+                 s.thrust_N * s.R_WB.col(2);
+  return true;
 }
 
 }  // namespace dronetwin

@@ -102,16 +102,18 @@ void pid_feed_forward(const ReferencePoint& reference, const PidLawConstants& k,
   if (k.acceleration_feed_forward) acceleration_m_s2 = reference.acceleration_m_s2;
   planning::FlatAttitude attitude;
   // The flat terms; where the flat attitude is singular they are zero, and the reference's
-  // acceleration is still fed forward.
-  if ((!k.angular_feed_forward && !k.drag_feed_forward) ||
-      !reference_flat_attitude(reference, k.gravity_m_s2, attitude))
+  // acceleration is still fed forward. With drag, the attitude is the flat one through the drag.
+  if (!k.angular_feed_forward && !k.drag_feed_forward) return;
+  Vec3 drag_W = Vec3::Zero();
+  if (k.drag_feed_forward
+          ? !reference_flat_attitude_with_drag(reference, k.gravity_m_s2, model, attitude, drag_W)
+          : !reference_flat_attitude(reference, k.gravity_m_s2, attitude))
     return;
   if (k.angular_feed_forward) {
     angular_velocity_B = attitude.angular_velocity_B_rad_s;
     angular_acceleration_B = attitude.angular_acceleration_B_rad_s2;
   }
-  if (k.drag_feed_forward)
-    acceleration_m_s2 -= flat_drag_force_W(reference, attitude, model) / k.mass_kg;
+  if (k.drag_feed_forward) acceleration_m_s2 -= drag_W / k.mass_kg;
 }
 
 void CascadedPid::set_control_period(double dt_s) {

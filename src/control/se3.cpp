@@ -32,14 +32,20 @@ Se3FeedForward<double> se3_feed_forward(const ReferencePoint& ref, const Vehicle
   Se3FeedForward<double> ff{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
   if (!k.angular_feed_forward && !k.drag_feed_forward) return ff;
   planning::FlatAttitude attitude;
-  // Singular reference (free fall, thrust along the heading): no feed-forward this step.
-  if (!reference_flat_attitude(ref, k.gravity_m_s2, attitude)) return ff;
+  // Singular reference (free fall, thrust along the heading): no feed-forward this step. With
+  // the drag compensated, the desired thrust direction is the flat one through the drag, so the
+  // rates fed forward are that attitude's.
+  if (k.drag_feed_forward) {
+    Vec3 drag_W;
+    if (!reference_flat_attitude_with_drag(ref, k.gravity_m_s2, model, attitude, drag_W)) return ff;
+    ff.drag_compensation_W = -drag_W;
+  } else if (!reference_flat_attitude(ref, k.gravity_m_s2, attitude)) {
+    return ff;
+  }
   if (k.angular_feed_forward) {
     ff.angular_velocity_B = attitude.angular_velocity_B_rad_s;
     ff.angular_acceleration_B = attitude.angular_acceleration_B_rad_s2;
   }
-  // The drag force is cancelled to first order: the flat attitude itself is the drag-free one.
-  if (k.drag_feed_forward) ff.drag_compensation_W = -flat_drag_force_W(ref, attitude, model);
   return ff;
 }
 

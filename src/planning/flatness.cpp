@@ -316,6 +316,13 @@ FlatState flat_state(const FlatOutput& f, const VehicleModel& model, double grav
   return out;
 }
 
+bool try_flat_state(const FlatOutput& f, const VehicleModel& model, double gravity_m_s2,
+                    const FlatDragTerms& drag, FlatState& out) {
+  Singularity singular;
+  compute(f, model, gravity_m_s2, drag, out, singular);
+  return singular.kind == FeasibilityViolation::kNone;
+}
+
 std::string_view violation_name(FeasibilityViolation v) {
   switch (v) {
     case FeasibilityViolation::kNone:

@@ -323,6 +323,16 @@ void validate(const Track& track, const TimeOptimalOptions& o) {
   require(o.intervals >= 4 * static_cast<int>(track.gates.size()) && o.intervals <= 100000,
           "time-optimal lap: intervals: expected in [4 x gates = ", 4 * track.gates.size(),
           ", 100000], got ", o.intervals);
+  if (!o.intervals_per_segment.empty()) {
+    require(o.intervals_per_segment.size() == track.gates.size(),
+            "time-optimal lap: intervals_per_segment: expected one count per segment (",
+            track.gates.size(), " for the gates of '", track.name, "'), got ",
+            o.intervals_per_segment.size());
+    for (std::size_t j = 0; j < o.intervals_per_segment.size(); ++j)
+      require(o.intervals_per_segment[j] >= 4 && o.intervals_per_segment[j] <= 100000,
+              "time-optimal lap: intervals_per_segment[", j,
+              "]: expected a count in [4, 100000], got ", o.intervals_per_segment[j]);
+  }
   require(o.substeps >= 1 && o.substeps <= 100,
           "time-optimal lap: substeps: expected in [1, 100], got ", o.substeps);
   require(std::isfinite(o.gate_margin_m), "time-optimal lap: gate_margin_m: expected finite, got ",
@@ -455,6 +465,32 @@ std::pair<StateVector, RotorVector> flown_at(const FlownTrajectory& f, double t_
   x.segment<4>(state_index::kQuaternion).normalize();
   const RotorVector u = (1.0 - w) * f.rotor_speeds_rad_s[i0] + w * f.rotor_speeds_rad_s[i1];
   return {x, u};
+}
+
+/// The rotor speeds whose thrusts are the flight's mean thrusts over [a, b] (trapezoids over the
+/// samples inside and the interpolated ends): held over the interval they give the flight's
+/// impulse, where the speed at the middle misses every switch of the controls inside it.
+RotorVector impulse_speeds(const FlownTrajectory& f, const VehicleModel& model, double a_s,
+                           double b_s) {
+  const int R = model.num_rotors();
+  std::vector<double> t{a_s};
+  for (double ts : f.times_s)
+    if (ts > a_s && ts < b_s) t.push_back(ts);
+  t.push_back(b_s);
+  std::vector<double> impulse(static_cast<std::size_t>(R), 0.0);
+  RotorVector prev = flown_at(f, t[0]).second;
+  for (std::size_t i = 1; i < t.size(); ++i) {
+    const RotorVector next = flown_at(f, t[i]).second;
+    for (int r = 0; r < R; ++r)
+      impulse[static_cast<std::size_t>(r)] +=
+          0.5 * (t[i] - t[i - 1]) *
+          (model.rotor(r).thrust(prev[r]) + model.rotor(r).thrust(next[r]));
+    prev = next;
+  }
+  RotorVector w = prev;
+  for (int r = 0; r < R; ++r)
+    w[r] = model.rotor(r).speed_for_thrust(impulse[static_cast<std::size_t>(r)] / (b_s - a_s));
+  return w;
 }
 
 planning::FeasibilityLimits rotor_limits_only(double gravity_m_s2) {
@@ -639,10 +675,14 @@ std::optional<TimeOptimalLap> solve_from(const Track& track, const VehicleModel&
 
   // Intervals per segment in proportion to the warm start's times.
   std::vector<int> intervals;
-  for (int j = 0; j < segments; ++j) {
-    const double share =
-        flown_lap.segment_s[static_cast<std::size_t>(j)] / warm_total_s * options.intervals;
-    intervals.push_back(std::max(4, static_cast<int>(std::lround(share))));
+  if (!options.intervals_per_segment.empty()) {
+    intervals = options.intervals_per_segment;
+  } else {
+    for (int j = 0; j < segments; ++j) {
+      const double share =
+          flown_lap.segment_s[static_cast<std::size_t>(j)] / warm_total_s * options.intervals;
+      intervals.push_back(std::max(4, static_cast<int>(std::lround(share))));
+    }
   }
   int N = 0;
   for (const int n : intervals) N += n;
@@ -692,8 +732,9 @@ std::optional<TimeOptimalLap> solve_from(const Track& track, const VehicleModel&
                            .dot(x[K - 1].segment<4>(state_index::kQuaternion)) < 0.0)
         xk.segment<4>(state_index::kQuaternion) *= -1.0;
       if (k < N) {
-        const double mid = flown_lap.start_s + 0.5 * (warm_time[K] + warm_time[K + 1]);
-        shared.controls_of(flown_at(flown, mid).second, v[K].data());
+        shared.controls_of(impulse_speeds(flown, model, flown_lap.start_s + warm_time[K],
+                                          flown_lap.start_s + warm_time[K + 1]),
+                           v[K].data());
       }
     }
     for (double& t : tau) t = std::log(scale);

@@ -106,7 +106,7 @@ TEST(Se3FeedForward, LowersTheTrackingErrorWithEveryTermButDrag) {
 }
 
 // With drag on, neither the rate feed-forward nor the plain law compensates the drag force; the
-// drag feed-forward (the model's drag at the reference velocity, on the flat attitude) does, and
+// drag feed-forward (the model's drag on the reference's flat state through the drag) does, and
 // with both the error falls well below the plain law's. The numbers go to docs/controllers.md.
 TEST(Se3FeedForward, WithDragOnTheDragFeedForwardRemovesMostOfTheError) {
   const Trajectory lap = aggressive_lap();

@@ -468,9 +468,16 @@ def test_time_optimal_lap_from_its_own_flight_is_no_slower(qdrone2, circuit_lap)
                 times.append(r * lap["lap_time_s"] + t[k] + frac * (t[k + 1] - t[k]))
                 states.append(x[k] + frac * (x[k + 1] - x[k]))
                 speeds.append(u[k])
+    # The end of the second round, so that its last gate passage is in the flight.
+    times.append(2 * lap["lap_time_s"])
+    states.append(x[-1])
+    speeds.append(u[-1])
+    # On the lap's own grid: intervals per segment from its gate nodes.
+    per_segment = np.diff(np.concatenate([[0], lap["gate_nodes"]])).tolist()
     again = pl.time_optimal_lap(track, qdrone2, intervals=120, flight_times_s=np.array(times),
                                 flight_states=np.array(states),
-                                flight_rotor_speeds_rad_s=np.array(speeds))
+                                flight_rotor_speeds_rad_s=np.array(speeds),
+                                intervals_per_segment=per_segment)
     assert again["converged"]
     assert again["lap_time_s"] <= lap["lap_time_s"] * (1 + 1e-3)
 
@@ -492,6 +499,11 @@ def test_time_optimal_lap_refuses_bad_input_by_name(qdrone2):
         pl.time_optimal_lap(track, qdrone2, warm_start_time_factors=[0.0])
     with pytest.raises(ValueError, match="time_optimal_lap: model: expected a VehicleModel, got None"):
         pl.time_optimal_lap(track, None)
+    with pytest.raises(ValueError, match=r"intervals_per_segment: expected one count per segment \(8 "
+                                         r"for the gates of 'circuit'\), got 3"):
+        pl.time_optimal_lap(track, qdrone2, intervals_per_segment=[20, 20, 20])
+    with pytest.raises(ValueError, match=r"intervals_per_segment\[7\]: expected a count in \[4, 100000\], got 0"):
+        pl.time_optimal_lap(track, qdrone2, intervals_per_segment=[20] * 7 + [0])
 
 
 def test_everything_in_planning_is_documented():

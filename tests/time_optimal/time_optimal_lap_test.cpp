@@ -181,8 +181,14 @@ TEST(TimeOptimalLap, ComesBackNoSlowerFromItsOwnLapAsAFlight) {
   flight.times_s.push_back(2.0 * lap.lap_time_s);
   flight.states.push_back(lap.states.back());
   flight.rotor_speeds_rad_s.push_back(lap.rotor_speeds_rad_s.back());
-  const TimeOptimalLap again =
-      solve_time_optimal_lap(circuit(), *qdrone2(), quick_options(), flight);
+  // On the lap's own grid (intervals per segment from its gate nodes).
+  TimeOptimalOptions same_grid = quick_options();
+  int previous_node = 0;
+  for (const int node : lap.gate_nodes) {
+    same_grid.intervals_per_segment.push_back(node - previous_node);
+    previous_node = node;
+  }
+  const TimeOptimalLap again = solve_time_optimal_lap(circuit(), *qdrone2(), same_grid, flight);
   std::cout << "from its own lap: " << again.lap_time_s << " s from " << lap.lap_time_s << " s\n";
   ASSERT_TRUE(again.converged) << again.max_violation;
   EXPECT_NEAR(again.warm_start_lap_time_s, lap.lap_time_s, 1e-9);
@@ -259,6 +265,14 @@ TEST(TimeOptimalLap, RefusesBadOptionsAndTracksByName) {
   o = {};
   o.max_inner_iterations = 0;
   refused(o, "max_outer_iterations and max_inner_iterations: expected >= 1, got 40 and 0");
+  o = {};
+  o.intervals_per_segment = {20, 20};
+  refused(o,
+          "intervals_per_segment: expected one count per segment (8 for the gates of "
+          "'circuit'), got 2");
+  o.intervals_per_segment.assign(8, 20);
+  o.intervals_per_segment[5] = 3;
+  refused(o, "intervals_per_segment[5]: expected a count in [4, 100000], got 3");
   o = {};
   o.gate_margin_m = 0.8;
   EXPECT_NE(error_of([&] { solve_time_optimal_lap(circuit(), model, o); })

@@ -24,8 +24,8 @@
 //     tau = K_P,in e_att - K_D1 (w_B - w_ref) - K_D2 (w_dot_B - w_dot_ref)
 //           + J w_dot_ref + w_ref x J w_ref         (J: the controller model's inertia).
 //   drag_feed_forward: the acceleration feed-forward (on with it) also cancels the model's frame
-//     and rotor drag at the reference velocity on the flat attitude (control/feed_forward.hpp):
-//     a_ff = a_ref - F_drag / m, as SE(3)'s drag feed-forward;
+//     and rotor drag on the reference's flat state through the drag (control/feed_forward.hpp):
+//     a_ff = a_ref - F_drag / m, and w_ref, w_dot_ref are that state's, as SE(3)'s;
 //   Where the flat attitude is singular (free fall, thrust along the heading) w_ref = w_dot_ref
 //   = 0 and F_drag = 0 for that step. docs/controllers.md, "Feed-forward", measures them.
 //

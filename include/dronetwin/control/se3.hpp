@@ -27,10 +27,11 @@
 // heading) the feed-forward is 0 for that step. docs/controllers.md, "Feed-forward", measures it.
 //
 // Drag feed-forward (Se3Options::drag_feed_forward; not in the thesis): F gains -F_drag, the
-// frame and rotor drag (Eq. 2.32) of the controller's model at the reference velocity, in still
-// air, on the flat attitude with the rotor speeds the thrust-first allocation gives for the flat
-// thrust and torques. It cancels the drag force to first order (the flat attitude itself is the
-// drag-free one); the rotor drag's moment and the wind are not compensated.
+// frame and rotor drag (Eq. 2.32) of the controller's model on the reference's flat state flown
+// through that drag, in still air (planning/flatness.hpp (5), control/feed_forward.hpp): its
+// thrust and attitude balance the drag exactly, and with angular_feed_forward w_des and
+// w_dot_des are that attitude's. The rates of the rotor drag's coefficient (the model with rotor
+// drag is not flat) and the wind are not compensated.
 //
 //   Se3Options options;                          // as printed
 //   options.gravity_compensation = true;         // notes #35

@@ -138,6 +138,12 @@ FlatSingularity flat_attitude(const FlatOutput& f, double gravity_m_s2, const Fl
 FlatState flat_state(const FlatOutput& f, const VehicleModel& model, double gravity_m_s2 = 9.81,
                      const FlatDragTerms& drag = {});
 
+/// flat_state() without its checks and without throwing, for a controller's inner loop: false
+/// (and `out` incomplete) where flat_state() would throw on finite flat outputs (a singular state,
+/// a drag fixed point that does not converge). Allocates nothing when it returns true.
+bool try_flat_state(const FlatOutput& f, const VehicleModel& model, double gravity_m_s2,
+                    const FlatDragTerms& drag, FlatState& out);
+
 /// What a trajectory must stay within besides the model's rotor speed limits.
 struct FeasibilityLimits {
   /// Largest angle between body z and world z, rad.

@@ -47,7 +47,10 @@
 // with feed-forward; or any recorded flight (FlownTrajectory), such as a racing policy's
 // episode. The plan's own flat states do not serve: they obey the flatness model, not the
 // drag terms, and their rotor speeds vary within an interval, and from them the feasibility
-// least squares stalls.
+// least squares stalls. Each interval's warm-start controls are the rotor speeds whose thrusts
+// are the flight's mean thrusts over it (the flight's impulse; the speeds at its middle miss
+// every switch inside it), so a lap given back as a flight on its own grid
+// (TimeOptimalOptions::intervals_per_segment) starts where it ended.
 //
 // Left out (docs/planning.md): the motor lag (the rotor speeds themselves are the controls, as
 // in the simulator with motor_dynamics off); collisions with gate frames other than through the
@@ -73,6 +76,10 @@ struct TimeOptimalOptions {
   /// Intervals over the whole lap, shared among the segments in proportion to the warm start's
   /// segment times (at least 4 each).
   int intervals = 150;
+  /// Intervals per segment (the last gate to the first, then gate to gate), at least 4 each;
+  /// replaces `intervals` when not empty. Re-solving from a lap on its own grid
+  /// (TimeOptimalLap::gate_nodes' differences) starts from a lap that is feasible already.
+  std::vector<int> intervals_per_segment;
   /// RK4 steps per interval.
   int substeps = 2;
   /// How far the vehicle's centre stays inside every edge of a gate's opening, m. Negative: the
