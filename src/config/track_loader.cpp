@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/core/vec_text.hpp"
 #include "dronetwin/logging/text_file.hpp"
 #include "yaml_strict.hpp"
 
@@ -29,17 +30,6 @@ const Names kObstacleKeys = {"name", "type", "center", "size", "radius_m", "heig
 const Names kObstacleTypes = {"box", "cylinder", "sphere"};
 
 constexpr double kDeg = M_PI / 180.0;
-
-std::string vec_text(const Vec3& v) {
-  // Appended piece by piece: GCC 12 reports a false -Wrestrict for "lit" + std::string chains.
-  std::string s(1, '[');
-  for (int k = 0; k < 3; ++k) {
-    if (k > 0) s.append(", ");
-    s.append(io_detail::format_number(v[k]));
-  }
-  s.push_back(']');
-  return s;
-}
 
 }  // namespace
 

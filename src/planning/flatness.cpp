@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <limits>
@@ -10,17 +11,13 @@
 #include <vector>
 
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/core/vec_text.hpp"
 #include "dronetwin/dynamics/body_drag.hpp"
 #include "dronetwin/dynamics/rotor.hpp"
 #include "dronetwin/model/allocation.hpp"
 
 namespace dronetwin::planning {
 namespace {
-
-// "[x, y, z]" (full precision) for messages.
-std::string text(const Vec3& v) {
-  return detail::concat("[", v.x(), ", ", v.y(), ", ", v.z(), "]");
-}
 
 bool finite(const FlatOutput& f) {
   return all_finite(f.position_m) && all_finite(f.velocity_m_s) &&
@@ -112,15 +109,15 @@ Singularity describe(FlatSingularity kind, const Vec3& thrust_vector, const char
     const double c = thrust_vector.norm();
     return {FeasibilityViolation::kSingular, c, kMinThrustPerMass_m_s2,
             detail::concat("zero thrust (free fall): |", name, "| = ", c, " m/s^2 (a = ",
-                           text(f.acceleration_m_s2), " m/s^2, g = ", g, " m/s^2), below ",
+                           VecText{f.acceleration_m_s2}, " m/s^2, g = ", g, " m/s^2), below ",
                            kMinThrustPerMass_m_s2, " m/s^2: the attitude is undefined")};
   }
   const Vec3 z_B = thrust_vector.normalized();
   const Vec3 x_C(std::cos(f.yaw_rad), std::sin(f.yaw_rad), 0.0);
   const double heading_sine = z_B.cross(x_C).norm();
   return {FeasibilityViolation::kSingular, heading_sine, kMinHeadingSine,
-          detail::concat("thrust direction z_B = ", text(z_B), " parallel to the heading x_C = ",
-                         text(x_C), " (yaw ", f.yaw_rad, " rad): |z_B x x_C| = ", heading_sine,
+          detail::concat("thrust direction z_B = ", VecText{z_B}, " parallel to the heading x_C = ",
+                         VecText{x_C}, " (yaw ", f.yaw_rad, " rad): |z_B x x_C| = ", heading_sine,
                          ", below ", kMinHeadingSine, ": the body x axis is undefined")};
 }
 
@@ -157,6 +154,13 @@ void compute_with_drag(const FlatOutput& f, const VehicleModel& model, double g,
   const Mat3 A = terms.body_drag ? model.body_drag_Ns_per_m() : Mat3(Mat3::Zero());
   // The force kernel's own drag maps of [v_B; w_B] (dynamics/body_drag.hpp, dynamics/rotor.hpp).
   const Matrix6<double> frame_map = body_drag_map<double>(A);
+  // Each rotor's map per unit C_D |w_i| depends on its geometry only: built once, not per
+  // iteration.
+  std::array<Matrix6<double>, kMaxRotors> rotor_maps;
+  if (terms.rotor_drag)
+    for (int i = 0; i < model.num_rotors(); ++i)
+      rotor_maps[static_cast<std::size_t>(i)] =
+          rotor_drag_map<double>(model.rotor(i).position_m, model.rotor(i).axis);
   GeneralizedForce hover = GeneralizedForce::Zero();
   hover[0] = m * g;
   RotorVector speeds = allocate_with_saturation(model, hover).speeds_rad_s;
@@ -167,10 +171,9 @@ void compute_with_drag(const FlatOutput& f, const VehicleModel& model, double g,
     double rotor_drag_per_m_s = 0.0;  // sum_i C_D |w_i|
     if (terms.rotor_drag)
       for (int i = 0; i < model.num_rotors(); ++i) {
-        const RotorParams& r = model.rotor(i);
-        const double c_i = r.rotor_drag_coefficient * std::abs(speeds[i]);
+        const double c_i = model.rotor(i).rotor_drag_coefficient * std::abs(speeds[i]);
         rotor_drag_per_m_s += c_i;
-        map += c_i * rotor_drag_map<double>(r.position_m, r.axis);
+        map += c_i * rotor_maps[static_cast<std::size_t>(i)];
       }
     const FlatDrag linear{(0.5 * (A(0, 0) + A(1, 1)) + rotor_drag_per_m_s) / m, A(2, 2) / m};
     FlatAttitude att;
@@ -305,10 +308,10 @@ FlatState flat_state(const FlatOutput& f, const VehicleModel& model, double grav
                      const FlatDragTerms& drag) {
   require_gravity(gravity_m_s2, "flat_state");
   require(finite(f), "flat_state: the flat output has a non-finite number (position ",
-          text(f.position_m), ", velocity ", text(f.velocity_m_s), ", acceleration ",
-          text(f.acceleration_m_s2), ", jerk ", text(f.jerk_m_s3), ", snap ", text(f.snap_m_s4),
-          ", yaw ", f.yaw_rad, " rad, ", f.yaw_rate_rad_s, " rad/s, ", f.yaw_acceleration_rad_s2,
-          " rad/s^2)");
+          VecText{f.position_m}, ", velocity ", VecText{f.velocity_m_s}, ", acceleration ",
+          VecText{f.acceleration_m_s2}, ", jerk ", VecText{f.jerk_m_s3}, ", snap ",
+          VecText{f.snap_m_s4}, ", yaw ", f.yaw_rad, " rad, ", f.yaw_rate_rad_s, " rad/s, ",
+          f.yaw_acceleration_rad_s2, " rad/s^2)");
   FlatState out;
   Singularity singular;
   compute(f, model, gravity_m_s2, drag, out, singular);

@@ -8,11 +8,11 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <ostream>
 #include <stdexcept>
 #include <string>
 
 #include "dronetwin/core/error.hpp"
+#include "dronetwin/core/vec_text.hpp"
 
 namespace dronetwin::planning {
 
@@ -85,15 +85,6 @@ Vec8 scaled_end_derivatives(const Eigen::MatrixXd& knots, std::size_t segment, E
   const auto base = static_cast<Eigen::Index>(kEndDerivatives * segment);
   for (int a = 0; a < 8; ++a) e[a] = knots(base + a, axis) * power[a % 4];
   return e;
-}
-
-// "(x, y, z)" in a message; formatted only when a message is built (require's parts are
-// streamed lazily, and validation runs on every plan).
-struct VecText {
-  const Vec3& v;
-};
-std::ostream& operator<<(std::ostream& out, const VecText& t) {
-  return out << "(" << t.v.x() << ", " << t.v.y() << ", " << t.v.z() << ")";
 }
 
 void validate(const std::vector<Waypoint>& waypoints, const char* who) {

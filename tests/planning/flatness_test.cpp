@@ -424,7 +424,7 @@ TEST(FlatDrag, SimulatorWithDragFlownOnDragAwareRotorSpeedsFollowsTheTrajectory)
   EXPECT_LT(with_rotor.max_position_error_m, 0.1 * with_rotor_blind.max_position_error_m);
 }
 
-TEST(FlatDrag, DragTooLargeForTheThrustIsNamed) {
+TEST(FlatDrag, DragTooAnisotropicForTheFixedPointIsNamed) {
   // Frame drag 1000 N s/m along x and 10 along y: the anisotropy, held as a force, outweighs the
   // closed form it corrects, and the fixed point does not settle.
   VehicleSpec spec = load_vehicle_spec(test::source_path("models/qdrone2.yaml"));
@@ -438,6 +438,37 @@ TEST(FlatDrag, DragTooLargeForTheThrustIsNamed) {
   expect_message(message, "flat_state: the drag fixed point did not converge in 100 iterations");
   expect_message(message, "rotor speed ");
   std::cout << message << "\n";
+}
+
+// try_flat_state, the controllers' form: the same state as flat_state to the bit where that one
+// returns, and false instead of a throw where it throws (free fall; the fixed point above).
+TEST(FlatDrag, TryFlatStateIsFlatStateWithoutThrowing) {
+  const auto model = qdrone2();
+  for (const FlatDragTerms terms : {FlatDragTerms{}, FlatDragTerms{true, true}}) {
+    for (double t = 0.0; t < 4.0; t += 0.29) {
+      const FlatOutput f = sine_flat_faster(t, 2.0);
+      const FlatState expected = flat_state(f, *model, kG, terms);
+      FlatState got;
+      ASSERT_TRUE(try_flat_state(f, *model, kG, terms, got)) << t;
+      EXPECT_EQ(got.R_WB, expected.R_WB) << t;
+      EXPECT_EQ(got.angular_velocity_B_rad_s, expected.angular_velocity_B_rad_s) << t;
+      EXPECT_EQ(got.angular_acceleration_B_rad_s2, expected.angular_acceleration_B_rad_s2) << t;
+      EXPECT_EQ(got.thrust_N, expected.thrust_N) << t;
+      EXPECT_EQ(got.torque_B_Nm, expected.torque_B_Nm) << t;
+      EXPECT_EQ(got.rotor_speeds_rad_s, expected.rotor_speeds_rad_s) << t;
+    }
+  }
+  FlatOutput falling = at_rest(Vec3(0, 0, 1), 0.0);
+  falling.acceleration_m_s2 = Vec3(0.0, 0.0, -kG);
+  FlatState out;
+  EXPECT_FALSE(try_flat_state(falling, *model, kG, FlatDragTerms{}, out));
+  EXPECT_NE(error_of([&] { (void)flat_state(falling, *model, kG); }), "");
+  VehicleSpec spec = load_vehicle_spec(test::source_path("models/qdrone2.yaml"));
+  spec.body_drag_Ns_per_m = Vec3(1000.0, 10.0, 0.25).asDiagonal();
+  const VehicleModel heavy_drag(spec);
+  FlatOutput sideways = at_rest(Vec3(0, 0, 1), 0.0);
+  sideways.velocity_m_s = Vec3(2.0, 2.0, 0.0);
+  EXPECT_FALSE(try_flat_state(sideways, heavy_drag, kG, FlatDragTerms{true, false}, out));
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -526,7 +526,7 @@ TEST(MinSnap, RejectsBadInputsNamingThem) {
   auto bad = w;
   bad[1].position_m.y() = std::nan("");
   expect_message(error_of([&] { plan_min_snap(bad, times); }),
-                 "waypoints[1].position_m: expected finite numbers, got (");
+                 "waypoints[1].position_m: expected finite numbers, got [");
   bad = w;
   bad[2].yaw_rad = std::numeric_limits<double>::infinity();
   expect_message(error_of([&] { plan_min_snap(bad, times); }),
