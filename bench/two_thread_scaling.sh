@@ -12,36 +12,53 @@
 #   efficiency  = ideal / t(2 threads)               1.0 is perfect; 0.9 is "1.8x" on equal cores
 #
 # Usage: bench/two_thread_scaling.sh [batch_bench binary] [rounds] [N] [steps per call]
-# Needs `taskset` (util-linux) and two online CPUs, 0 and 1.
+# Needs `taskset` (util-linux) and two online CPUs, 0 and 1. Tested by
+# tests/bench/two_thread_scaling_test.sh.
 set -euo pipefail
 
+me=two_thread_scaling.sh
 bench=${1:-build/release-native/bench/batch_bench}
 rounds=${2:-3}
 n=${3:-1024}
 steps=${4:-1}
 
-if [[ ! -x $bench ]]; then
-  echo "two_thread_scaling.sh: no benchmark binary at '$bench' (build the release-native preset)" >&2
+fail() {
+  echo "$me: $*" >&2
   exit 2
-fi
-command -v taskset > /dev/null || { echo "two_thread_scaling.sh: taskset not found" >&2; exit 2; }
+}
+for arg in "rounds=$rounds" "N=$n" "steps per call=$steps"; do
+  [[ ${arg#*=} =~ ^[1-9][0-9]*$ ]] || fail "${arg%%=*}: expected a positive integer, got '${arg#*=}'"
+done
+[[ -x $bench ]] || fail "no benchmark binary at '$bench' (build the release-native preset)"
+command -v taskset > /dev/null || fail "taskset not found (util-linux)"
+taskset -c 1 true 2> /dev/null || fail "cannot run on CPU 1: two online CPUs, 0 and 1, are needed"
+
+one_row() { echo "BM_Batch$1/N:${n}/steps:${steps}/threads:$2"; }
+rows=$("$bench" --benchmark_list_tests 2> /dev/null) || fail "'$bench --benchmark_list_tests' failed"
+for type in Double Float; do
+  for threads in 1 2; do
+    row=$(one_row "$type" "$threads")
+    grep -qxF "$row/real_time" <<< "$rows" ||
+      fail "$bench has no row $row; rows with 2 threads:" \
+        "$(grep -E "^BM_Batch$type/.*threads:2" <<< "$rows" | sed 's|^BM_Batch[A-Za-z]*/||; s|/threads:2/real_time||' | tr '\n' ' ')"
+  done
+done
 
 # Real time per call in ns of one benchmark row, run as given (prefix: e.g. "taskset -c 0").
 time_ns() {
-  local filter=$1
+  local row=$1
   shift
-  "$@" "$bench" --benchmark_filter="^${filter}/real_time\$" --benchmark_min_time=0.5 2> /dev/null |
-    awk '/^BM_/ { print $2; found = 1 } END { if (!found) exit 1 }'
+  "$@" "$bench" --benchmark_filter="^${row}/real_time\$" --benchmark_min_time=0.5 2> /dev/null |
+    awk '/^BM_/ { print $2; found = 1 } END { if (!found) exit 1 }' ||
+    fail "no time from '$* $bench' for $row"
 }
 
 printf '%-6s %5s %10s %10s %10s %8s %10s %10s\n' type round 't0 ns' 't1 ns' 't2thr ns' scaling 'ideal ns' efficiency
 for type in Double Float; do
-  one="BM_Batch${type}/N:${n}/steps:${steps}/threads:1"
-  two="BM_Batch${type}/N:${n}/steps:${steps}/threads:2"
   for ((r = 1; r <= rounds; ++r)); do
-    t0=$(time_ns "$one" taskset -c 0) || { echo "no row $one" >&2; exit 1; }
-    t1=$(time_ns "$one" taskset -c 1)
-    t2=$(time_ns "$two")
+    t0=$(time_ns "$(one_row "$type" 1)" taskset -c 0)
+    t1=$(time_ns "$(one_row "$type" 1)" taskset -c 1)
+    t2=$(time_ns "$(one_row "$type" 2)")
     awk -v ty="$type" -v r="$r" -v a="$t0" -v b="$t1" -v c="$t2" 'BEGIN {
       fast = (a < b) ? a : b; ideal = 1 / (1 / a + 1 / b);
       printf "%-6s %5d %10.0f %10.0f %10.0f %8.2f %10.0f %10.2f\n", ty, r, a, b, c, fast / c, ideal, ideal / c }'
