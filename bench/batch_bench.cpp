@@ -8,17 +8,25 @@
 // BM_*WindField: shear, a gust and moderate Dryden turbulence (a per-lane scalar pass per step).
 // BM_*Faults: a rotor at 90 % thrust from 0.5 s and a stuck rotor from 1 s after each lane's
 // reset (the per-lane fault clock, a kernel rebuild when a lane's fault begins).
+// BM_*Split: the threads:2 row's lanes as one batch per thread, no memory in common (split()).
 //
 // "steps per call" 1 is an RL loop that acts every physics step; 10 is a 100 Hz policy over a
 // 1 kHz physics (the pack stays in registers for the 10 steps).
 
 #include <benchmark/benchmark.h>
+#include <pthread.h>
+#include <sched.h>
 
+#include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <memory>
+#include <thread>
+#include <vector>
 
 #include "dronetwin/batch/batch_se3.hpp"
 #include "dronetwin/batch/batch_simulator.hpp"
+#include "dronetwin/batch/thread_pool.hpp"
 #include "dronetwin/config/model_loader.hpp"
 
 namespace {
@@ -128,6 +136,85 @@ void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
       vehicle_steps / 1e9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
+// The threads:2 row's work with no memory in common between the threads: N lanes as `threads`
+// batches of N / threads lanes (one thread each), stepped together by one ThreadPool, so the
+// same hand-over and the same wait as the threads:2 row. It tells what two threads of this machine
+// give at the moment: where this row is as slow as the threads:2 row, the machine is the limit;
+// where it is faster, the difference is what sharing one batch's arrays costs
+// (bench/two_thread_scaling.sh, docs/performance.md).
+template <class T>
+void split(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const int steps = static_cast<int>(state.range(1));
+  const int threads = static_cast<int>(state.range(2));
+  if (n % threads != 0) {
+    state.SkipWithError("N must be a multiple of the number of threads");
+    return;
+  }
+  std::vector<std::unique_ptr<Rig<T>>> rigs;
+  for (int t = 0; t < threads; ++t)
+    rigs.push_back(std::make_unique<Rig<T>>(n / threads, 1, Mode::kOpenLoop));
+  ThreadPool pool(threads);
+  for (auto _ : state) {
+    if (rigs.front()->due()) {
+      state.PauseTiming();
+      for (auto& rig : rigs) rig->restart();
+      state.ResumeTiming();
+    }
+    pool.run(threads, [&](int t) {
+      benchmark::DoNotOptimize(rigs[static_cast<std::size_t>(t)]->step(steps));
+    });
+  }
+  const double vehicle_steps = static_cast<double>(state.iterations()) * n * steps;
+  state.counters["vehicle_steps/s"] =
+      benchmark::Counter(vehicle_steps, benchmark::Counter::kIsRate);
+  state.counters["ns/vehicle_step"] = benchmark::Counter(
+      vehicle_steps / 1e9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
+// The machine, not the engine: one cache line passed back and forth between a thread pinned to
+// CPU 0 and one pinned to CPU 1, the time of a round trip. Every hand-over of the pool and every
+// line the two threads of a batch both touch pays this; on a shared VM it changes when the host
+// moves the vCPUs (190 ns and 460 ns on the same VM within the hour: docs/performance.md).
+void BM_CoreRoundTrip(benchmark::State& state) {
+  const auto pin = [](int cpu) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(cpu, &set);
+    return pthread_setaffinity_np(pthread_self(), sizeof(set), &set) == 0;
+  };
+  cpu_set_t before;
+  pthread_getaffinity_np(pthread_self(), sizeof(before), &before);
+  alignas(64) std::atomic<std::int64_t> ball{0};
+  std::atomic<int> partner_pinned{-1};  // -1 not yet known, 0 failed, 1 pinned
+  std::atomic<bool> stop{false};
+  std::thread partner([&] {
+    partner_pinned = pin(1) ? 1 : 0;
+    // Answers each odd value with the next even one until told to stop.
+    while (!stop.load(std::memory_order_relaxed)) {
+      const std::int64_t v = ball.load(std::memory_order_acquire);
+      if ((v & 1) == 1) ball.store(v + 1, std::memory_order_release);
+    }
+  });
+  while (partner_pinned.load() < 0) {
+  }
+  if (partner_pinned.load() == 1 && pin(0)) {
+    std::int64_t v = 0;
+    for (auto _ : state) {
+      ball.store(++v, std::memory_order_release);
+      ++v;
+      while (ball.load(std::memory_order_acquire) != v) {
+      }
+    }
+  } else {
+    state.SkipWithError("cannot pin one thread to CPU 0 and one to CPU 1");
+  }
+  stop = true;
+  partner.join();
+  pthread_setaffinity_np(pthread_self(), sizeof(before), &before);
+}
+BENCHMARK(BM_CoreRoundTrip)->UseRealTime();
+
 // Two-thread scaling measured so that the machine's speed cancels out: a 1-thread and a 2-thread
 // batch of the same lanes take turns (the order alternating), each call timed on its own, and
 // `scaling` is the 1-thread time over the 2-thread time. On a shared virtual machine the clock
@@ -182,6 +269,9 @@ void BM_BatchFloatSe3(benchmark::State& s) { run<float>(s, Mode::kSe3); }
 void BM_BatchDoubleFaults(benchmark::State& s) { run<double>(s, Mode::kFaults); }
 void BM_BatchDoubleBattery(benchmark::State& s) { run<double>(s, Mode::kBattery); }
 
+void BM_BatchDoubleSplit(benchmark::State& s) { split<double>(s); }
+void BM_BatchFloatSplit(benchmark::State& s) { split<float>(s); }
+
 void BM_ScalingDouble(benchmark::State& s) { scaling<double>(s); }
 void BM_ScalingFloat(benchmark::State& s) { scaling<float>(s); }
 void BM_ScalingDoubleSe3(benchmark::State& s) { scaling<double>(s, Mode::kSe3); }
@@ -204,6 +294,15 @@ BENCHMARK(BM_BatchFloatSe3)->Apply(sizes);
 BENCHMARK(BM_BatchDoubleWindField)->Apply(sizes);
 BENCHMARK(BM_BatchDoubleFaults)->Apply(sizes);
 BENCHMARK(BM_BatchDoubleBattery)->Apply(sizes);
+
+void split_sizes(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"N", "steps", "threads"});
+  b->Args({1024, 1, 2});
+  b->Args({1024, 10, 2});
+  b->UseRealTime();
+}
+BENCHMARK(BM_BatchDoubleSplit)->Apply(split_sizes);
+BENCHMARK(BM_BatchFloatSplit)->Apply(split_sizes);
 
 void scaling_sizes(benchmark::internal::Benchmark* b) {
   b->ArgNames({"N", "steps", "in_a_row"});
