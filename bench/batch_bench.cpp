@@ -115,6 +115,14 @@ class Rig {
   std::int64_t simulated_ = 0;
 };
 
+// Vehicle-steps per second and nanoseconds per vehicle-step (time / (vehicle steps / 1e9)).
+void report_rates(benchmark::State& state, double vehicle_steps) {
+  state.counters["vehicle_steps/s"] =
+      benchmark::Counter(vehicle_steps, benchmark::Counter::kIsRate);
+  state.counters["ns/vehicle_step"] = benchmark::Counter(
+      vehicle_steps / 1e9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
 template <class T>
 void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
   const int n = static_cast<int>(state.range(0));
@@ -128,12 +136,7 @@ void run(benchmark::State& state, Mode mode = Mode::kOpenLoop) {
     }
     benchmark::DoNotOptimize(rig.step(steps));
   }
-  const double vehicle_steps = static_cast<double>(state.iterations()) * n * steps;
-  state.counters["vehicle_steps/s"] =
-      benchmark::Counter(vehicle_steps, benchmark::Counter::kIsRate);
-  // time / (vehicle steps / 1e9): nanoseconds per vehicle-step.
-  state.counters["ns/vehicle_step"] = benchmark::Counter(
-      vehicle_steps / 1e9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  report_rates(state, static_cast<double>(state.iterations()) * n * steps);
 }
 
 // The threads:2 row's work with no memory in common between the threads: N lanes as `threads`
@@ -165,17 +168,14 @@ void split(benchmark::State& state) {
       benchmark::DoNotOptimize(rigs[static_cast<std::size_t>(t)]->step(steps));
     });
   }
-  const double vehicle_steps = static_cast<double>(state.iterations()) * n * steps;
-  state.counters["vehicle_steps/s"] =
-      benchmark::Counter(vehicle_steps, benchmark::Counter::kIsRate);
-  state.counters["ns/vehicle_step"] = benchmark::Counter(
-      vehicle_steps / 1e9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  report_rates(state, static_cast<double>(state.iterations()) * n * steps);
 }
 
 // The machine, not the engine: one cache line passed back and forth between a thread pinned to
 // CPU 0 and one pinned to CPU 1, the time of a round trip. Every hand-over of the pool and every
 // line the two threads of a batch both touch pays this; on a shared VM it changes when the host
-// moves the vCPUs (190 ns and 460 ns on the same VM within the hour: docs/performance.md).
+// moves the vCPUs (about 110 ns and then 360-515 ns on the same VM within minutes:
+// docs/performance.md).
 void BM_CoreRoundTrip(benchmark::State& state) {
   const auto pin = [](int cpu) {
     cpu_set_t set;

@@ -54,7 +54,7 @@ for type in Double Float; do
   row=$(split_row "$type")
   grep -qxF "$row/real_time" <<< "$rows" ||
     fail "$bench has no row $row; split rows:" \
-      "$(grep -E "^BM_Batch${type}Split/" <<< "$rows" | sed 's|^BM_Batch[A-Za-z]*/||; s|/threads:2/real_time||' | tr '\n' ' ')"
+      "$(grep -E "^BM_Batch${type}Split/" <<< "$rows" | sed 's|^BM_Batch[A-Za-z]*/||; s|/threads:2/real_time||' | tr '\n' ' ' | grep . || echo none)"
 done
 
 grep -qxF "BM_CoreRoundTrip/real_time" <<< "$rows" || fail "$bench has no row BM_CoreRoundTrip"

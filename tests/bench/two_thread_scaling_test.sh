@@ -67,8 +67,14 @@ check "exit status of a refusal" "2" "$?"
 old="$work/old_bench"
 sed 's/BM_Batch[A-Za-z]*Split[^ "]*//g' "$fake" > "$old"
 chmod +x "$old"
-check "no split row" "has no row BM_BatchDoubleSplit/N:1024/steps:1/threads:2; split rows:" \
+check "no split row" "has no row BM_BatchDoubleSplit/N:1024/steps:1/threads:2; split rows: none" \
   "$(bash "$script" "$old" 1 2>&1)"
+check "split row of another N" "has no row BM_BatchDoubleSplit/N:512/steps:1/threads:2; split rows: N:1024/steps:1" \
+  "$(sed 's|BM_BatchDouble/N:1024|BM_BatchDouble/N:512|g' "$fake" > "$work/n512" && chmod +x "$work/n512" && bash "$script" "$work/n512" 1 512 2>&1)"
+no_trip="$work/no_trip_bench"
+sed 's/^BM_CoreRoundTrip"$/"/' "$fake" > "$no_trip"
+chmod +x "$no_trip"
+check "no round-trip row" "has no row BM_CoreRoundTrip" "$(bash "$script" "$no_trip" 1 2>&1)"
 echo "$out"
 
 if ((failures > 0)); then
