@@ -215,6 +215,35 @@ void BM_CoreRoundTrip(benchmark::State& state) {
 }
 BENCHMARK(BM_CoreRoundTrip)->UseRealTime();
 
+// The layout question behind batch_stride(), without the engine: 1024 float lanes in rows of
+// `stride` floats, walked pack by pack, each pack reading the 24 rows a pack step reads (state,
+// rotor speeds and references, wind) and rewriting the 17 it writes, with a little arithmetic.
+// 1024 floats are 4096 bytes, the period of the L1 set index, so every row of a pack falls in one
+// set; 1040 (65 lines, batch_stride(1024)) spreads them (docs/batch.md, "Layout"). Far less
+// arithmetic per pack than the kernel's, so it shows the cache effect larger than a step does.
+void BM_PackRows(benchmark::State& state) {
+  constexpr int kLanes = 1024, kRead = 24, kWritten = 17;
+  constexpr int kWidth = kBatchLanes<float>;
+  using P = Pack<float, kWidth>;
+  const auto stride = static_cast<std::size_t>(state.range(0));
+  AlignedArray<float> rows(stride * kRead, 1.0f);
+  for (auto _ : state) {
+    for (std::size_t base = 0; base < kLanes; base += kWidth) {
+      P sum(0.0f);
+      for (std::size_t k = 0; k < kRead; ++k)
+        sum += P(&rows[k * stride + base], stdx::vector_aligned);
+      for (std::size_t k = 0; k < kWritten; ++k) {
+        float* row = &rows[k * stride + base];
+        const P x = P(row, stdx::vector_aligned) * P(0.999f) + sum * P(1e-6f);
+        x.copy_to(row, stdx::vector_aligned);
+      }
+    }
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations()) * kLanes);
+}
+BENCHMARK(BM_PackRows)->ArgName("stride")->Arg(1024)->Arg(1040);
+
 // Two-thread scaling measured so that the machine's speed cancels out: a 1-thread and a 2-thread
 // batch of the same lanes take turns (the order alternating), each call timed on its own, and
 // `scaling` is the 1-thread time over the 2-thread time. On a shared virtual machine the clock

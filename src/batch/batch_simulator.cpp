@@ -47,7 +47,17 @@ template <class T>
 int batch_stride(int num_vehicles, const char* what) {
   require(num_vehicles >= 1 && num_vehicles <= kMaxBatchVehicles, what,
           ": num_vehicles: expected 1 to ", kMaxBatchVehicles, ", got ", num_vehicles);
-  return (num_vehicles + kBatchLanes<T> - 1) / kBatchLanes<T> * kBatchLanes<T>;
+  // Whole cache lines, and an odd number of them. The L1 set of an address is its bits 6-11 (64
+  // sets of 64-byte lines: a 4096-byte period), so with rows of a power-of-two size (1024 floats
+  // are 4096 bytes) element k of a pack sits in the same set for every k: the ~24 rows a pack
+  // reads and writes compete for one set's 8-12 ways and evict each other, in every call. Rows of
+  // an odd number of lines put consecutive rows in different sets. At most two lines a row.
+  constexpr int kLineBytes = 64;
+  static_assert(kLineBytes % (kBatchLanes<T> * static_cast<int>(sizeof(T))) == 0,
+                "a pack must divide a cache line");
+  constexpr int kPerLine = kLineBytes / static_cast<int>(sizeof(T));
+  const int lines = (num_vehicles + kPerLine - 1) / kPerLine;
+  return (lines % 2 == 0 ? lines + 1 : lines) * kPerLine;
 }
 template int batch_stride<double>(int, const char*);
 template int batch_stride<float>(int, const char*);
@@ -128,7 +138,7 @@ BatchSimulator<T>::BatchSimulator(std::shared_ptr<const VehicleModel> model, Sim
   stride_ = batch_stride<T>(num_vehicles, "BatchSimulator");
   terms_ = ForceTerms::of(config_.disturbances);
   num_vehicles_ = num_vehicles;
-  num_packs_ = stride_ / kLanes;
+  num_packs_ = (num_vehicles + kLanes - 1) / kLanes;  // the lanes' packs, not the padding's
   pool_ = std::make_unique<ThreadPool>(num_threads);
 
   const auto n = static_cast<std::size_t>(stride_);

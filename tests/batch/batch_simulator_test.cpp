@@ -6,8 +6,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <limits>
+#include <vector>
 
 #include "dronetwin/noise/random.hpp"
 #include "test_support.hpp"
@@ -219,6 +223,44 @@ TEST(BatchSimulator, ResultsAreBitwiseIndependentOfThreadsAndBatchSize) {
     const std::vector<double> small = fly_and_collect(n, 2, flights, model);
     EXPECT_EQ(std::memcmp(small.data(), one_thread.data(), small.size() * sizeof(double)), 0)
         << "batch of " << n;
+  }
+}
+
+// The rows of one pack lie in different L1 sets (address bits 6-11) whatever the lane count,
+// powers of two included: the stride is an odd number of 64-byte lines, at most two lines longer
+// than the lanes need, and what is written in the padding (lanes past size()) fails no lane.
+template <class T>
+void expect_rows_in_distinct_sets(const std::shared_ptr<const VehicleModel>& model, int n) {
+  SCOPED_TRACE(::testing::Message() << n << " lanes of " << sizeof(T) << "-byte values");
+  BatchSimulator<T> batch(model, SimConfig(), n, 1);
+  const int stride = batch.stride();
+  const auto row_bytes = static_cast<std::size_t>(stride) * sizeof(T);
+  EXPECT_GE(stride, n);
+  EXPECT_EQ(stride % BatchSimulator<T>::kLanes, 0);
+  EXPECT_EQ(row_bytes % 64, 0u);
+  EXPECT_LT(row_bytes - static_cast<std::size_t>(n) * sizeof(T), 2u * 64u);
+  std::vector<std::size_t> sets;
+  for (int k = 0; k < kStateSize; ++k) {
+    const auto address = reinterpret_cast<std::uintptr_t>(batch.state_data() + k * stride);
+    sets.push_back((address / 64) % 64);
+  }
+  std::sort(sets.begin(), sets.end());
+  EXPECT_EQ(std::adjacent_find(sets.begin(), sets.end()), sets.end())
+      << "two of the 13 state rows share an L1 set";
+  // A NaN in the padding is not a lane's state.
+  const int pad = stride - 1;
+  if (pad >= n) {
+    batch.state_data()[static_cast<std::size_t>(kPosition) * stride + pad] =
+        std::numeric_limits<T>::quiet_NaN();
+    EXPECT_EQ(batch.step(3), 0) << "a lane failed on the padding's NaN";
+  }
+}
+
+TEST(BatchSimulator, RowsOfAPackFallInDifferentCacheSets) {
+  const auto model = test::load_model("qdrone2");
+  for (int n : {1, 7, 512, 1000, 1024, 4096}) {
+    expect_rows_in_distinct_sets<double>(model, n);
+    expect_rows_in_distinct_sets<float>(model, n);
   }
 }
 

@@ -24,6 +24,16 @@ def test_state_is_a_live_lane_by_row_view(qdrone2):
     assert batch.wind.shape == (5, 3)
     f32 = dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=3, dtype=np.float32)
     assert f32.state.dtype == np.float32 and f32.state.shape == (3, 13)
+    # 1024 lanes: rows padded to an odd number of 64-byte lines (docs/batch.md, "Layout"); the
+    # view's strides follow, so lane 1023 is still row 1023.
+    big = dt.BatchSimulator(qdrone2, dt.SimConfig(), num_vehicles=1024, dtype=np.float32)
+    item, row = big.state.strides
+    assert item == 4 and row >= 1024 * 4 and row % 64 == 0 and (row // 64) % 2 == 1
+    x = np.arange(13, dtype=np.float64) / 8.0
+    x[6:10] = [1.0, 0.0, 0.0, 0.0]
+    big.reset([1023], x[None, :], None)  # written by the engine at k * stride + 1023
+    np.testing.assert_array_equal(big.state[1023], x.astype(np.float32))
+    np.testing.assert_array_equal(big.state[1022, :3], np.zeros(3, dtype=np.float32))
 
 
 def test_every_lane_equals_the_simulator_bit_for_bit(qdrone2):

@@ -13,7 +13,8 @@
 //   double z = batch.state_at(state_index::kPosition + 2, 17);
 //
 // Layout: structure of arrays. Element k of lane l's state is state_data()[k * stride() + l],
-// stride() >= size() a multiple of the pack width; rotor speeds, references and wind likewise.
+// stride() >= size() a multiple of the pack width (padded: batch_stride()); rotor speeds,
+// references and wind likewise.
 // The arrays are plain memory the caller may read and write between steps (Python views them as
 // (N, 13) arrays); a step checks what it reads and refuses a lane whose inputs are not valid.
 //
@@ -93,8 +94,10 @@ inline constexpr int kBatchLanes = static_cast<int>(stdx::native_simd<T>::size()
 /// Most vehicles one batch (and one batched controller) holds.
 inline constexpr int kMaxBatchVehicles = 1 << 24;
 
-/// Length of each per-lane array for `num_vehicles` lanes of T: whole packs. Throws
-/// InvalidArgument naming `what` unless 1 <= num_vehicles <= kMaxBatchVehicles.
+/// Length of each per-lane array for `num_vehicles` lanes of T: an odd number of whole cache
+/// lines (whole packs), so that the rows of one pack do not all fall in one L1 set
+/// (docs/batch.md, "Layout"). Throws InvalidArgument naming `what` unless
+/// 1 <= num_vehicles <= kMaxBatchVehicles.
 template <class T>
 int batch_stride(int num_vehicles, const char* what);
 
@@ -173,8 +176,9 @@ class BatchSimulator {
                  int num_threads = 1);
 
   int size() const { return num_vehicles_; }
-  /// Length of one element's array (size() rounded up to whole packs): element k of lane l is at
-  /// [k * stride() + l] of state_data() (and likewise for the rotor and wind arrays).
+  /// Length of one element's array (size() rounded up to whole packs, then padded: batch_stride()):
+  /// element k of lane l is at [k * stride() + l] of state_data() (and likewise for the rotor and
+  /// wind arrays).
   int stride() const { return stride_; }
   int num_rotors() const { return model_->num_rotors(); }
   int num_threads() const { return pool_->num_threads(); }
