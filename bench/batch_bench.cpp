@@ -219,7 +219,7 @@ BENCHMARK(BM_CoreRoundTrip)->UseRealTime();
 // `stride` floats, walked pack by pack, each pack reading the 24 rows a pack step reads (state,
 // rotor speeds and references, wind) and rewriting the 17 it writes, with a little arithmetic.
 // 1024 floats are 4096 bytes, the period of the L1 set index, so every row of a pack falls in one
-// set; 1040 (65 lines, batch_stride(1024)) spreads them (docs/batch.md, "Layout"). Far less
+// set; batch_stride<float>(1024), 1040 (65 lines), spreads them (docs/batch.md, "Layout"). Far less
 // arithmetic per pack than the kernel's, so it shows the cache effect larger than a step does.
 void BM_PackRows(benchmark::State& state) {
   constexpr int kLanes = 1024, kRead = 24, kWritten = 17;
@@ -242,7 +242,8 @@ void BM_PackRows(benchmark::State& state) {
   }
   state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations()) * kLanes);
 }
-BENCHMARK(BM_PackRows)->ArgName("stride")->Arg(1024)->Arg(1040);
+// The unpadded row, then the batch's own stride for 1024 floats (1040 on a 64-byte line).
+BENCHMARK(BM_PackRows)->ArgName("stride")->Arg(1024)->Arg(batch_stride<float>(1024, "BM_PackRows"));
 
 // Two-thread scaling measured so that the machine's speed cancels out: a 1-thread and a 2-thread
 // batch of the same lanes take turns (the order alternating), each call timed on its own, and
