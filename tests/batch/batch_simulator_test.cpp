@@ -187,6 +187,28 @@ TEST(BatchSimulator, EveryLaneEqualsTheSimulatorForAllSwitchCombinationsAndAirfr
               lanes_checked, lanes_touching, lanes_failed, worst);
 }
 
+// a * b + c compiled for a CPU with FMA instructions, where GCC would fuse it unless told not to.
+#if defined(__x86_64__)
+[[gnu::target("fma"), gnu::noinline]] double multiply_add(double a, double b, double c) {
+  return a * b + c;
+}
+#else  // other targets with FMA (aarch64) have it without asking
+[[gnu::noinline]] double multiply_add(double a, double b, double c) { return a * b + c; }
+#endif
+
+// The equality above holds in a native build only because the build turns FMA contraction off
+// (CMakeLists.txt; docs/batch.md). The portable build has no FMA to show it, so this checks the
+// flag directly: with a = 1 + 2^-30, b = 1 - 2^-30, the product 1 - 2^-60 rounds to 1 and
+// a * b - 1 is 0, where one fused instruction gives -2^-60.
+TEST(BatchSimulator, TheBuildFusesNoMultiplyAddThatTheSourceDoesNotAskFor) {
+#if defined(__x86_64__)
+  if (!__builtin_cpu_supports("fma")) GTEST_SKIP() << "this CPU has no FMA instructions";
+#endif
+  const volatile double a = 1.0 + 0x1p-30, b = 1.0 - 0x1p-30, c = -1.0;
+  EXPECT_EQ(std::fma(a, b, c), -0x1p-60);  // what fusing would give
+  EXPECT_EQ(multiply_add(a, b, c), 0.0);
+}
+
 /// A batch of `n` lanes flying the first `n` of a fixed set of flights, stepped by `threads`.
 std::vector<double> fly_and_collect(int n, int threads, const std::vector<LaneFlight>& flights,
                                     const std::shared_ptr<const VehicleModel>& model) {

@@ -5,8 +5,8 @@
 // by column, a scalar it cannot vectorise (a SIMD pack of vehicles, a Jet) goes through a pairwise
 // tree. Each order is fine alone, but a batch lane would then differ from the Simulator by a
 // rounding step that a tumbling flight amplifies. The force kernel's products use this instead,
-// so a double and every lane of a pack do the same operations in the same order (bitwise equal
-// where the compiler contracts neither into fused multiply-adds, as in the portable build).
+// so a double and every lane of a pack do the same operations in the same order (bitwise equal,
+// since the build forbids the compiler to fuse either into multiply-adds: CMakeLists.txt).
 //
 //   Vector3<P> v_B = ordered_product(R.transpose(), v_W);    // any scalars Eigen can multiply
 
